@@ -1,9 +1,20 @@
 """Surfaces: the composite topography Δh that enters the contact solvers."""
+from .detrend import detrend
 from .footprint import disc, rectangle
 from .fourier import fourier_surface
+from .fractal_dimension import (
+    FractalDimensionEstimate,
+    fractal_dimension,
+    fractal_dimension_cube_counting,
+    fractal_dimension_psd,
+    fractal_dimension_variogram,
+    fractal_dimensions,
+)
 from .midpoint import midpoint_surface
 from .statistics import RadialPSD, StructureFunction, radial_psd, rms_height, rms_slope, structure_function
 from .topography import Topography
 
-__all__ = ["Topography", "disc", "rectangle", "midpoint_surface", "fourier_surface",
-           "rms_height", "rms_slope", "radial_psd", "structure_function", "RadialPSD", "StructureFunction"]
+__all__ = ["Topography", "disc", "rectangle", "midpoint_surface", "fourier_surface", "detrend",
+           "rms_height", "rms_slope", "radial_psd", "structure_function", "RadialPSD", "StructureFunction",
+           "fractal_dimension", "fractal_dimensions", "fractal_dimension_psd", "fractal_dimension_variogram",
+           "fractal_dimension_cube_counting", "FractalDimensionEstimate"]

@@ -104,16 +104,20 @@ def fourier_surface(shape, spacing: float = 1.0, *, hurst: float | None = None,
 
     pad = 1 if periodic else NONPERIODIC_PADDING
     mx, my = pad * nx, pad * ny
-    rng = np.random.default_rng(seed)
-    noise = rng.standard_normal((mx, my))
     qx = 2.0 * np.pi * np.fft.fftfreq(mx, d=s)
     qy = 2.0 * np.pi * np.fft.rfftfreq(my, d=s)
-    q = np.hypot(qx[:, None], qy[None, :])
-    amplitude = _power_law_amplitude(q, hurst, q_rolloff, q_short, 2.0 * np.pi / (max(mx, my) * s))
+    amplitude = _power_law_amplitude(np.hypot(qx[:, None], qy[None, :]), hurst, q_rolloff, q_short,
+                                     2.0 * np.pi / (max(mx, my) * s))
     if not amplitude.any():
         raise InputError("short_cutoff_wavelength", "removes every Fourier mode of the grid")
-    heights = np.fft.irfft2(np.fft.rfft2(noise) * amplitude, s=(mx, my))[:nx, :ny]
-    del noise
+    rng = np.random.default_rng(seed)
+    spectrum = np.fft.rfft2(rng.standard_normal((mx, my)))
+    spectrum *= amplitude
+    del amplitude
+    heights = np.fft.irfft2(spectrum, s=(mx, my))
+    del spectrum
+    if not periodic:
+        heights = heights[:nx, :ny].copy()  # release the padded grid
     heights -= heights.mean()
     heights = scaled_to_rms(heights, s, rms_height, rms_slope)
     meta = dict(generator="Fourier filtering", hurst=hurst, fractal_dimension=3.0 - hurst,
@@ -125,11 +129,13 @@ def fourier_surface(shape, spacing: float = 1.0, *, hurst: float | None = None,
 
 def _power_law_amplitude(q: np.ndarray, hurst: float, q_rolloff: float, q_short: float,
                          q_unit: float) -> np.ndarray:
-    """sqrt(C(q)) of the roll-off power law, zero at q = 0 and above q_short."""
+    """sqrt(C(q)) of the roll-off power law, zero at q = 0 and above q_short (overwrites q)."""
     exponent = -(1.0 + hurst)  # sqrt of q^(-2(1+H))
     reference = max(q_rolloff, q_unit)
+    removed = (q == 0) | (q > q_short * (1.0 + 1e-12))
+    amplitude = np.maximum(q, q_rolloff, out=q)
+    amplitude /= reference
     with np.errstate(divide="ignore"):
-        amplitude = (np.maximum(q, q_rolloff) / reference) ** exponent
-    amplitude[q == 0] = 0.0
-    amplitude[q > q_short * (1.0 + 1e-12)] = 0.0
+        np.power(amplitude, exponent, out=amplitude)
+    amplitude[removed] = 0.0
     return amplitude

@@ -94,7 +94,8 @@ def midpoint_heights(levels: int, fractal_dimension: float, seed: int = 0,
             z[0::step, 0::step] += delta * rng.standard_normal(z[0::step, 0::step].shape)
             z[half::step, half::step] += delta * rng.standard_normal(z[half::step, half::step].shape)
         step = half
-    return z - z.mean()
+    z -= z.mean()
+    return z
 
 
 def midpoint_surface(levels: int, fractal_dimension: float, spacing: float = 1.0,
@@ -132,7 +133,7 @@ def midpoint_surface(levels: int, fractal_dimension: float, spacing: float = 1.0
         raise InputError("random_additions", f"must be True or False, got {random_additions!r}")
     z = midpoint_heights(levels, fractal_dimension, seed, random_additions)
     if rms_height is None and rms_slope is None:
-        z = z * s
+        z *= s
     else:
         z = scaled_to_rms(z, s, rms_height, rms_slope)
     meta = dict(generator="random midpoint displacement", fractal_dimension=float(fractal_dimension),

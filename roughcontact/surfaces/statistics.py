@@ -219,7 +219,8 @@ def scaled_to_rms(heights: np.ndarray, spacing: float, rms_height: float | None 
 
     Used by the generators: exactly one of ``rms_height`` or ``rms_slope``
     (m, dimensionless) is given; the result satisfies the chosen statistic as
-    defined in this module, to rounding.
+    defined in this module, to rounding. ``heights`` is scaled in place (the
+    generators own it) and returned.
     """
     if rms_height is not None and rms_slope is not None:
         raise InputError("rms_slope", "give rms_height or rms_slope, not both")
@@ -234,4 +235,5 @@ def scaled_to_rms(heights: np.ndarray, spacing: float, rms_height: float | None 
         raise InputError("rms_height", "give rms_height (m) or rms_slope to set the amplitude")
     if not current > 0:
         raise InputError("heights", "are flat: cannot scale a zero rms to a target value")
-    return heights * (target / current)
+    heights *= target / current
+    return heights

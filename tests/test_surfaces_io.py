@@ -113,6 +113,29 @@ def test_netcdf_written_by_surfacetopography(tmp_path):
     assert t.spacing == pytest.approx(0.25e-6, rel=1e-12)
 
 
+def test_netcdf_with_non_uniform_coordinates_is_refused(tmp_path):
+    import xarray as xr
+
+    ds = xr.Dataset({"heights": (("x", "y"), np.zeros((4, 3)), {"units": "m"})},
+                    coords={"x": ("x", [0.0, 1.0, 2.0, 4.0], {"units": "m"}),
+                            "y": ("y", [0.0, 1.0, 2.0], {"units": "m"})})
+    ds.to_netcdf(tmp_path / "uneven.nc", engine="h5netcdf")
+    with pytest.raises(InputError, match="not uniform") as err:
+        read_topography(tmp_path / "uneven.nc")
+    assert err.value.parameter == "path"
+
+
+def test_three_column_matrix_can_be_forced(tmp_path):
+    """A 5 x 3 height matrix would look like x-y-z rows; layout='matrix' reads it as heights."""
+    h = np.arange(15.0).reshape(5, 3)
+    np.savetxt(tmp_path / "thin.txt", h)
+    t = read_topography(tmp_path / "thin.txt", spacing=1.0, unit="m", layout="matrix")
+    assert np.array_equal(t.heights, h)
+    with pytest.raises(InputError) as err:  # read as x-y-z: 5 points on a 5 x 5 grid, 20 missing
+        read_topography(tmp_path / "thin.txt", unit="m")
+    assert err.value.parameter == "missing"
+
+
 def test_nan_heights_rejected_or_masked(tmp_path):
     h = np.ones((6, 6))
     h[2, 3] = np.nan

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..errors import InputError
 from ._checks import check_vector
-from .interpolation import SNAP, interpolate_at_indices
+from .interpolation import interpolate_at_indices, snap_to_integers
 from .statistics import valid_nodes
 from .topography import Topography
 
@@ -73,7 +73,7 @@ def composite_topography(lower: Topography, upper: Topography,
                          "resample one of them first")
     ranges = []
     for axis, v in ((0, vx), (1, vy)):
-        offset = _snap(v / s)
+        offset = float(snap_to_integers(v / s))
         first = max(0, int(np.ceil(offset)))
         last = min(lower.shape[axis] - 1, int(np.floor(upper.shape[axis] - 1 + offset)))
         if last < first:
@@ -107,8 +107,3 @@ def mated_composite(face: Topography, shift: tuple[float, float]) -> Topography:
     for a cylindrical core: the overlap is then the lens of two discs.
     """
     return composite_topography(face, face, shift)
-
-
-def _snap(value: float) -> float:
-    nearest = round(value)
-    return float(nearest) if abs(value - nearest) < SNAP else value

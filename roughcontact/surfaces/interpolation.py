@@ -71,10 +71,15 @@ def resample_square(heights: np.ndarray, pixel_size: tuple[float, float],
     return interpolate_at_indices(heights, np.arange(mx) * (s / sx), np.arange(my) * (s / sy)), s
 
 
+def snap_to_integers(index):
+    """Fractional indices within :data:`SNAP` of an integer, replaced by that integer."""
+    nearest = np.round(index)
+    return np.where(np.abs(index - nearest) < SNAP, nearest, index)
+
+
 def _along_axis(values: np.ndarray, index: np.ndarray, axis: int) -> np.ndarray:
     n = values.shape[axis]
-    nearest = np.round(index)
-    index = np.where(np.abs(index - nearest) < SNAP, nearest, index)
+    index = snap_to_integers(index)
     inside = (index >= 0) & (index <= n - 1)
     safe = np.where(inside, index, 0.0)
     lower = np.minimum(np.floor(safe).astype(np.intp), n - 1)

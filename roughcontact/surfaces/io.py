@@ -34,7 +34,7 @@ from ._checks import check_choice
 from .detrend import MODES as DETREND_MODES
 from .detrend import _detrended
 from .interpolation import resample_square
-from .topography import Topography
+from .topography import Topography, _uniform_step
 from .units import metres_per
 
 #: File suffixes read without SurfaceTopography.
@@ -255,11 +255,10 @@ def _read_netcdf(path: Path, spacing, unit, height_unit):
         steps = []
         for axis in ("x", "y"):
             if axis in ds.coords and ds.coords[axis].size > 1:
-                coords = np.asarray(ds.coords[axis].values, dtype=float)
-                step = np.diff(coords)
-                if not (np.all(step > 0) and np.ptp(step) <= 1e-6 * step.mean()):
-                    raise InputError("path", f"{path.name}: coordinate {axis} is not a uniform increasing grid")
-                steps.append(float(step.mean()))
+                try:
+                    steps.append(_uniform_step(axis, np.asarray(ds.coords[axis].values, dtype=float), 1e-6))
+                except InputError as exc:
+                    raise InputError("path", f"{path.name}: {exc}") from None
             else:
                 steps.append(None)
         if "mask" in ds.variables:  # SurfaceTopography: True where undefined

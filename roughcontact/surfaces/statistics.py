@@ -176,18 +176,23 @@ def structure_function(topography: Topography, lags=None) -> StructureFunction:
         for axis in (0, 1):
             if heights.shape[axis] <= k:
                 continue
-            a = [slice(None)] * 2
-            b = [slice(None)] * 2
-            a[axis] = slice(k, None)
-            b[axis] = slice(None, -k)
-            both = mask[tuple(a)] & mask[tuple(b)]
-            diff = heights[tuple(a)] - heights[tuple(b)]
+            diff, both = _increments(heights, mask, axis, k)
             total += float(np.sum(diff[both] ** 2))
             count += int(both.sum())
         pairs[n] = count
         values[n] = total / count if count else np.nan
     filled = pairs > 0
     return StructureFunction(lags[filled] * topography.spacing, values[filled], pairs[filled])
+
+
+def _increments(heights: np.ndarray, mask: np.ndarray, axis: int, lag: int):
+    """h(x + lag e_axis) − h(x), and where both nodes are in ``mask``."""
+    ahead = [slice(None)] * 2
+    behind = [slice(None)] * 2
+    ahead[axis] = slice(lag, None)
+    behind[axis] = slice(None, -lag)
+    ahead, behind = tuple(ahead), tuple(behind)
+    return heights[ahead] - heights[behind], mask[ahead] & mask[behind]
 
 
 def _rms_height(heights: np.ndarray, mask: np.ndarray) -> float:
@@ -200,14 +205,9 @@ def _rms_slope(heights: np.ndarray, spacing: float, mask: np.ndarray) -> float:
     for axis in (0, 1):
         if heights.shape[axis] < 2:
             continue
-        diff = np.diff(heights, axis=axis) / spacing
-        a = [slice(None)] * 2
-        b = [slice(None)] * 2
-        a[axis] = slice(1, None)
-        b[axis] = slice(None, -1)
-        both = mask[tuple(a)] & mask[tuple(b)]
+        diff, both = _increments(heights, mask, axis, 1)
         if both.any():
-            mean_square += float(np.mean(diff[both] ** 2))
+            mean_square += float(np.mean((diff[both] / spacing) ** 2))
     if heights.shape[0] < 2 and heights.shape[1] < 2:
         raise InputError("heights", "a single node has no slope")
     return float(np.sqrt(mean_square))

@@ -15,9 +15,8 @@ import numpy as np
 import pytest
 
 from roughcontact.errors import InputError
-from roughcontact.surfaces import fourier_surface, midpoint_surface, radial_psd, rms_height, rms_slope
+from roughcontact.surfaces import fourier_surface, midpoint_surface, rms_height, rms_slope
 from roughcontact.surfaces.midpoint import check_fractal_dimension, midpoint_heights
-
 
 # --------------------------------------------------------------------------- midpoint
 

@@ -125,6 +125,24 @@ def test_netcdf_with_non_uniform_coordinates_is_refused(tmp_path):
     assert err.value.parameter == "path"
 
 
+def test_resampling_carries_a_stored_footprint(tmp_path):
+    """A disc footprint on 1 x 0.7 pixels, resampled onto 0.7: the nominal area is kept within the
+    perimeter band (one coarse pixel, 1.0, times the ellipse's perimeter), and no point counts as missing."""
+    import xarray as xr
+
+    sx, sy, n = 1.0, 0.7, 30
+    x, y = np.arange(n) * sx, np.arange(n) * sy
+    footprint = ((x[:, None] - 14.5) / 10) ** 2 + ((y[None, :] - 10.15) / 7) ** 2 <= 1  # 20 x 14 m ellipse
+    ds = xr.Dataset({"heights": (("x", "y"), np.random.default_rng(5).random((n, n)), {"units": "m"}),
+                     "footprint": (("x", "y"), footprint.astype(np.int8))},
+                    coords={"x": ("x", x, {"units": "m"}), "y": ("y", y, {"units": "m"})})
+    ds.to_netcdf(tmp_path / "ellipse.nc", engine="h5netcdf")
+    t = read_topography(tmp_path / "ellipse.nc", resample=True)
+    assert t.spacing == pytest.approx(0.7) and t.metadata["missing_points"] == 0
+    ellipse_area, perimeter = np.pi * 10 * 7, 2 * np.pi * np.sqrt((10**2 + 7**2) / 2)
+    assert t.nominal_area == pytest.approx(ellipse_area, abs=perimeter * sx)
+
+
 def test_three_column_matrix_can_be_forced(tmp_path):
     """A 5 x 3 height matrix would look like x-y-z rows; layout='matrix' reads it as heights."""
     h = np.arange(15.0).reshape(5, 3)

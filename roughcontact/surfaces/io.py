@@ -175,8 +175,8 @@ def _finish(heights: np.ndarray, pixel_size: tuple[float, float], meta: dict[str
         spacing = sx if square else None
     else:
         heights, spacing = resample_square(heights, (sx, sy), target)
-        # a new node is in the footprint when every node it interpolates from is
-        footprint = resample_square(footprint.astype(float), (sx, sy), target)[0] == 1.0
+        # a new node is in the footprint when every node it interpolates from is ((1 - t) + t may round)
+        footprint = resample_square(footprint.astype(float), (sx, sy), target)[0] >= 1.0 - 1e-9
         meta["resampled"] = dict(method="bilinear", from_pixel_size=(sx, sy), spacing=spacing)
     undefined = ~np.isfinite(heights) & footprint
     meta["missing_points"] = int(undefined.sum())

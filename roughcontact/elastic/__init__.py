@@ -1,0 +1,1 @@
+"""Elastic half-space operators: Eq. 10 influence coefficients and their PETSc matrix."""

@@ -1,0 +1,54 @@
+"""The flexibility operator H of Eq. 9–11 as a distributed PETSc matrix.
+
+The operator is an explicit dense matrix (MATDENSE) whose rows are split over
+the ranks of the communicator it is given; each rank tabulates the Eq. 10
+kernel once and gathers its own rows from it, vectorised. The normal solvers
+use nothing but the PETSc ``Mat`` interface (``mult``, ``createSubMatrix``),
+so a matrix-free operator can replace this one untouched.
+"""
+from __future__ import annotations
+
+import numpy as np
+from petsc4py import PETSc
+
+from ..materials import Interface
+from ..surfaces.topography import Topography
+from .influence import influence_rows, punch_kernel
+
+
+def ownership(n: int, comm) -> tuple[int, int]:
+    """PETSc's default split of ``n`` rows over ``comm``: (start, stop) of this rank."""
+    size, rank = comm.Get_size(), comm.Get_rank()
+    counts = [n // size + (1 if r < n % size else 0) for r in range(size)]
+    start = sum(counts[:rank])
+    return start, start + counts[rank]
+
+
+def assemble_flexibility(topography: Topography, interface: Interface, comm) -> PETSc.Mat:
+    """Dense flexibility matrix H (Eq. 10) over the footprint nodes, row-distributed.
+
+    Unknowns are the footprint nodes in C order of the mask
+    (``numpy.argwhere(topography.footprint)``). Entries are in m/N.
+    """
+    nodes = np.argwhere(topography.footprint)
+    n = nodes.shape[0]
+    start, stop = ownership(n, comm)
+    kernel = punch_kernel(topography.shape, topography.spacing, interface.compliance)
+    local = np.empty((stop - start, n), order="F")
+    influence_rows(kernel, nodes, slice(start, stop), out=local)
+    mat = PETSc.Mat().createDense(((stop - start, n), (stop - start, n)), array=local, comm=comm)
+    mat.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+    mat.setOption(PETSc.Mat.Option.SPD, True)
+    mat.assemble()
+    return mat
+
+
+def gather_dense(mat: PETSc.Mat, comm) -> np.ndarray:
+    """The whole of a row-distributed dense ``mat`` as a numpy array on every rank."""
+    if mat.getType() in (PETSc.Mat.Type.MPIDENSE, PETSc.Mat.Type.SEQDENSE):
+        local = np.array(mat.getDenseArray(readonly=True))
+    else:
+        start, stop = mat.getOwnershipRange()
+        ncols = mat.getSize()[1]
+        local = np.array(mat.getValues(range(start, stop), range(ncols))).reshape(stop - start, ncols)
+    return np.concatenate(comm.allgather(local), axis=0)

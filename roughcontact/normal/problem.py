@@ -1,0 +1,119 @@
+"""A normal contact problem: composite topography + materials + flexibility operator.
+
+Rigid-body motion and loads (Eqs. 7–8)
+--------------------------------------
+The initial gap of a footprint node is ``gap0 = max(Δh) − Δh`` (zero at the
+highest node). Rotations are taken about the centroid (x_c, y_c) of the
+footprint, and with x, y measured from it the imposed interpenetration is
+
+    w_i = δz − θx y_i − θy x_i − gap0_i                           (Eq. 7)
+
+so that contact (Eq. 7a) means u_i = w_i and separation (Eq. 7b) u_i > w_i,
+with u = H p the elastic displacement. The resultants (Eq. 8) are
+P = Σ p, Mx = Σ p y, My = Σ p x about the same centroid; written with the
+columns C = [1, −y, −x] they are the loads conjugate to r = (δz, θx, θy):
+Cᵀ p = (P, −Mx, −My).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..materials import Interface
+from ..surfaces.topography import Topography
+
+
+class NormalProblem:
+    """Layout of one normal contact problem on a communicator.
+
+    Parameters
+    ----------
+    topography
+        Composite topography Δh on a square grid with its footprint.
+    interface
+        The two materials.
+    comm
+        mpi4py communicator the operator is distributed on.
+    operator
+        A PETSc Mat for H over the footprint nodes (rows split as
+        :func:`roughcontact.elastic.petsc.ownership`); assembled as MATDENSE
+        (Eq. 10) when omitted.
+    """
+
+    def __init__(self, topography: Topography, interface: Interface, comm, operator=None):
+        from ..elastic.petsc import assemble_flexibility, ownership
+
+        self.topography = topography
+        self.interface = interface
+        self.comm = comm
+        self.nodes = np.argwhere(topography.footprint)
+        self.size = self.nodes.shape[0]
+        self.start, self.stop = ownership(self.size, comm)
+        s = topography.spacing
+        xy = self.nodes * s
+        self.centroid = xy.mean(axis=0)
+        local = slice(self.start, self.stop)
+        self.x = xy[local, 0] - self.centroid[0]
+        self.y = xy[local, 1] - self.centroid[1]
+        heights = topography.heights[topography.footprint]
+        self.gap0 = heights.max() - heights[local]
+        # the scale of heights, used to make gap tolerances relative
+        self.height_range = float(np.ptp(heights)) if heights.size > 1 else 0.0
+        self.columns = np.stack([np.ones_like(self.x), -self.y, -self.x], axis=1)
+        self._owns_operator = operator is None
+        self.operator = assemble_flexibility(topography, interface, comm) if operator is None else operator
+        rows = self.operator.getOwnershipRange()
+        if tuple(rows) != (self.start, self.stop) or self.operator.getSize()[0] != self.size:
+            raise ValueError("operator rows do not match the footprint nodes' ownership")
+        self._all_xy = xy - self.centroid
+
+    @property
+    def local_size(self) -> int:
+        return self.stop - self.start
+
+    def interpenetration(self, rigid: np.ndarray) -> np.ndarray:
+        """w = C r − gap0 on the local nodes, for r = (δz, θx, θy) (Eq. 7)."""
+        return self.columns @ np.asarray(rigid, dtype=float) - self.gap0
+
+    def allsum(self, local) -> np.ndarray:
+        """Sum over ranks of a local partial sum (same bits on every rank)."""
+        return self._allreduce(local, "SUM")
+
+    def allmax(self, local) -> np.ndarray:
+        """Maximum over ranks."""
+        return self._allreduce(local, "MAX")
+
+    def _allreduce(self, local, op: str) -> np.ndarray:
+        from mpi4py import MPI
+
+        send = np.array(local, dtype=float, ndmin=1)
+        recv = np.empty_like(send)
+        self.comm.Allreduce(send, recv, op=getattr(MPI, op))
+        return recv.reshape(np.shape(local))
+
+    def gather(self, local: np.ndarray) -> np.ndarray:
+        """All footprint values of a distributed vector, on every rank."""
+        return np.concatenate(self.comm.allgather(np.asarray(local)))
+
+    def to_field(self, values: np.ndarray, fill: float = 0.0) -> np.ndarray:
+        """A (nx, ny) field from footprint values (global vector), ``fill`` elsewhere."""
+        field = np.full(self.topography.shape, fill, dtype=np.asarray(values).dtype)
+        field[self.topography.footprint] = values
+        return field
+
+    def load_point_inside(self, point: np.ndarray) -> bool:
+        """Whether ``point`` (centroid-relative x, y) lies in the footprint's convex hull."""
+        from scipy.spatial import ConvexHull, QhullError
+
+        try:
+            hull = ConvexHull(self._all_xy)
+        except (QhullError, ValueError):
+            # fewer than 3 nodes or collinear nodes: allow the exact centroid only
+            return bool(np.allclose(point, 0.0, atol=1e-12 * self.topography.spacing))
+        tol = 1e-9 * self.topography.spacing
+        return bool(np.all(hull.equations[:, :2] @ point + hull.equations[:, 2] <= tol))
+
+    def destroy(self) -> None:
+        """Free the operator if this problem assembled it (collective)."""
+        if self._owns_operator and self.operator is not None:
+            self.operator.destroy()
+        self.operator = None

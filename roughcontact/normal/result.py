@@ -1,0 +1,59 @@
+"""Result of a normal contact solve (paper §2–§3.1)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class NormalResult:
+    """The converged state of one normal contact solve, identical on every rank.
+
+    Fields are (nx, ny) arrays on the topography's grid, zero (``gap``: NaN)
+    outside the footprint. Forces are the nodal resultants p̄ of Eq. 9 (N);
+    ``pressure`` is p̄ / s² (Pa). Coordinates (``centroid``) are in the grid's
+    frame (node (i, j) at (i s, j s)); moments are about the footprint's
+    centroid ``reference_point``.
+    """
+
+    force: np.ndarray
+    pressure: np.ndarray
+    contact: np.ndarray
+    gap: np.ndarray
+    load: float
+    moments: tuple[float, float]
+    centroid: tuple[float, float]
+    reference_point: tuple[float, float]
+    closure: float
+    rotation: tuple[float, float]
+    contact_area: float
+    nominal_area: float
+    outer_iterations: int
+    linear_iterations: int
+    residual: float
+    elapsed: float
+    solver: str
+    control: str
+    no_contact: bool
+    full_contact: bool
+    converged: bool = True
+    reason: str = "CONVERGED"
+    residual_history: tuple[float, ...] = field(default_factory=tuple)
+
+    @property
+    def contact_fraction(self) -> float:
+        """Real over apparent contact area A_r / A_0."""
+        return self.contact_area / self.nominal_area
+
+    @property
+    def contact_count(self) -> int:
+        return int(self.contact.sum())
+
+    def summary(self) -> str:
+        flags = [f for f, on in (("no contact", self.no_contact), ("full contact", self.full_contact)) if on]
+        return (f"P={self.load:.6g} N, δz={self.closure:.6g} m, θ=({self.rotation[0]:.3g}, "
+                f"{self.rotation[1]:.3g}), A_r/A_0={self.contact_fraction:.4f}, "
+                f"outer={self.outer_iterations}, linear={self.linear_iterations}, "
+                f"residual={self.residual:.2e}, {self.elapsed:.3f} s"
+                + (f" [{', '.join(flags)}]" if flags else ""))

@@ -1,0 +1,30 @@
+"""Shared fixtures. The same files run serially and under ``mpiexec -n 2``:
+every assertion must hold on every rank (results are replicated on all ranks)."""
+from __future__ import annotations
+
+import gc
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+
+@pytest.fixture
+def comm():
+    return MPI.COMM_WORLD
+
+
+@pytest.fixture(autouse=True)
+def _collective_cleanup():
+    """Free PETSc objects deterministically and keep ranks in step between tests."""
+    yield
+    gc.collect()
+    MPI.COMM_WORLD.Barrier()
+
+
+def sphere_heights(n: int, spacing: float, radius: float, centre=None) -> np.ndarray:
+    """Paraboloid Δh = −r²/(2R) on an n×n grid, centred on the middle node by default."""
+    c = (n - 1) * spacing / 2.0 if centre is None else centre
+    x = np.arange(n) * spacing - (c if np.isscalar(c) else c[0])
+    y = np.arange(n) * spacing - (c if np.isscalar(c) else c[1])
+    return -(x[:, None] ** 2 + y[None, :] ** 2) / (2.0 * radius)

@@ -1,0 +1,92 @@
+"""Results as xarray datasets with CF-style attributes, written as NetCDF.
+
+Variables carry ``units`` and ``long_name`` so ``ds.plot`` labels axes by
+itself; global attributes record the package version, the solver, and the
+interface constants (A, γ, β of Eqs. 4a, 4b, 5). Files are written by rank 0
+of the given communicator, to a temporary name first and renamed when
+complete, so a failure never leaves a truncated file under the final name.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+import xarray as xr
+
+from . import __version__
+from .normal.result import NormalResult
+
+_SCALARS = {
+    # name: (getter, units, long_name)
+    "load": (lambda r: r.load, "N", "normal load P (Eq. 8)"),
+    "closure": (lambda r: r.closure, "m", "normal approach δz (Eq. 7)"),
+    "rotation_x": (lambda r: r.rotation[0], "rad", "rotation θx (Eq. 7)"),
+    "rotation_y": (lambda r: r.rotation[1], "rad", "rotation θy (Eq. 7)"),
+    "moment_x": (lambda r: r.moments[0], "N m", "moment Mx = Σ p y about the footprint centroid (Eq. 8)"),
+    "moment_y": (lambda r: r.moments[1], "N m", "moment My = Σ p x about the footprint centroid (Eq. 8)"),
+    "centroid_x": (lambda r: r.centroid[0], "m", "x of the pressure centroid G_P"),
+    "centroid_y": (lambda r: r.centroid[1], "m", "y of the pressure centroid G_P"),
+    "contact_area": (lambda r: r.contact_area, "m2", "real contact area A_r"),
+    "contact_fraction": (lambda r: r.contact_fraction, "1", "A_r / A_0"),
+    "mean_pressure": (lambda r: r.load / r.nominal_area, "Pa", "nominal pressure σ0 = P / A_0"),
+    "outer_iterations": (lambda r: r.outer_iterations, "1", "active-set iterations"),
+    "linear_iterations": (lambda r: r.linear_iterations, "1", "inner linear-solver iterations"),
+    "residual": (lambda r: r.residual, "1", "final relative complementarity residual"),
+    "elapsed": (lambda r: r.elapsed, "s", "wall time of the solve"),
+    "no_contact": (lambda r: int(r.no_contact), "1", "1 when nothing touches"),
+    "full_contact": (lambda r: int(r.full_contact), "1", "1 when the whole footprint touches"),
+}
+
+
+def normal_sweep_dataset(results: Sequence[NormalResult], spacing: float, dim: str = "step",
+                         fields: bool = True, attrs: dict | None = None) -> xr.Dataset:
+    """One dataset of a sweep of normal solves along ``dim``.
+
+    With ``fields`` the nodal force, pressure and contact mask are stored on
+    (dim, x, y).
+    """
+    n = len(results)
+    data = {}
+    for name, (get, units, long_name) in _SCALARS.items():
+        data[name] = ((dim,), np.array([get(r) for r in results]), {"units": units, "long_name": long_name})
+    coords = {dim: (dim, np.arange(n), {"long_name": "index of the solve in the sweep"})}
+    if fields and n:
+        nx, ny = results[0].force.shape
+        coords["x"] = ("x", np.arange(nx) * spacing, {"units": "m", "long_name": "x"})
+        coords["y"] = ("y", np.arange(ny) * spacing, {"units": "m", "long_name": "y"})
+        data["force"] = ((dim, "x", "y"), np.stack([r.force for r in results]),
+                         {"units": "N", "long_name": "nodal contact force p̄ (Eq. 9)"})
+        data["pressure"] = ((dim, "x", "y"), np.stack([r.pressure for r in results]),
+                            {"units": "Pa", "long_name": "contact pressure p̄ / s²"})
+        data["contact"] = ((dim, "x", "y"), np.stack([r.contact for r in results]).astype(np.int8),
+                           {"units": "1", "long_name": "contact set S"})
+    ds = xr.Dataset(data, coords=coords)
+    ds.attrs.update({"roughcontact_version": __version__, "spacing": spacing,
+                     "solver": results[0].solver if n else "", "control": results[0].control if n else ""})
+    ds.attrs.update(attrs or {})
+    return ds
+
+
+def write_netcdf(ds: xr.Dataset, path: str | os.PathLike, comm=None) -> Path:
+    """Write ``ds`` to ``path`` from rank 0 (atomically); all ranks return the path."""
+    path = Path(path)
+    rank = 0 if comm is None else comm.Get_rank()
+    error = None
+    if rank == 0:
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_name(path.name + ".part")
+            clean = ds.copy()
+            clean.attrs = {k: (int(v) if isinstance(v, bool) else v) for k, v in ds.attrs.items()
+                           if v is not None}
+            clean.to_netcdf(tmp, engine="h5netcdf", invalid_netcdf=False)
+            os.replace(tmp, path)
+        except Exception as exc:   # reported on every rank below, never swallowed
+            error = f"{type(exc).__name__}: {exc}"
+    if comm is not None:
+        error = comm.bcast(error, root=0)
+    if error:
+        raise OSError(f"could not write {path}: {error}")
+    return path

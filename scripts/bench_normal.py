@@ -1,0 +1,132 @@
+#!/usr/bin/env python
+"""Benchmark of the normal solver: assembly time, memory, solve time, iterations.
+
+Grids from 32² to 128² nodes of a random-midpoint-displacement surface
+(Δ = 2.3) pressed to about 15 % contact, on 1 and 2 MPI ranks; the
+paper's Gauss–Seidel reference solver where it finishes within a budget.
+Times are medians of --repeats runs measured in this one invocation.
+
+    python scripts/bench_normal.py                         # writes results/bench_normal.json
+    python scripts/bench_normal.py --sizes 32 64 --ranks 1 # a quicker look
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def worker(args) -> None:
+    import petsc4py
+
+    petsc4py.init([])
+    from mpi4py import MPI
+
+    from roughcontact.elastic.petsc import assemble_flexibility
+    from roughcontact.materials import Interface, Material
+    from roughcontact.normal import ActiveSetSolver, NormalProblem
+    from roughcontact.surfaces import Topography, midpoint_surface
+
+    comm = MPI.COMM_WORLD
+    interface = Interface(Material(20e9, 0.2), Material(20e9, 0.2))
+    rows = []
+    for n in args.sizes:
+        levels = int(np.ceil(np.log2(n - 1))) if n > 2 else 1
+        full = midpoint_surface(levels, 2.3, spacing=1e-4, rms_height=1e-5, seed=7)
+        topo = Topography(full.heights[:n, :n], full.spacing)
+        h = topo.heights.ravel()
+        closure = float(h.max() - np.quantile(h, 0.75))
+        assembly = []
+        for _ in range(args.repeats):
+            comm.Barrier()
+            t0 = time.perf_counter()
+            mat = assemble_flexibility(topo, interface, comm)
+            comm.Barrier()
+            assembly.append(time.perf_counter() - t0)
+            mat.destroy()
+        problem = NormalProblem(topo, interface, comm)
+        solves, result = [], None
+        for _ in range(args.repeats):
+            with ActiveSetSolver(problem) as solver:
+                comm.Barrier()
+                t0 = time.perf_counter()
+                result = solver.solve_closure(closure)
+                comm.Barrier()
+                solves.append(time.perf_counter() - t0)
+        row = {
+            "nodes_per_side": n, "unknowns": n * n, "ranks": comm.Get_size(),
+            "assembly_s_median": float(np.median(assembly)),
+            "matrix_bytes_per_rank": int(8 * n * n * int(np.ceil(n * n / comm.Get_size()))),
+            "solve_s_median": float(np.median(solves)),
+            "contact_fraction": result.contact_fraction,
+            "outer_iterations": result.outer_iterations,
+            "ksp_iterations": result.linear_iterations,
+            "residual": result.residual,
+        }
+        if n * n <= args.gs_max_unknowns:
+            with ActiveSetSolver(problem, "gauss-seidel") as solver:
+                comm.Barrier()
+                t0 = time.perf_counter()
+                gs = solver.solve_closure(closure)
+                comm.Barrier()
+                row.update(gs_solve_s=time.perf_counter() - t0, gs_sweeps=gs.linear_iterations,
+                           gs_outer_iterations=gs.outer_iterations,
+                           gs_max_force_difference=float(np.abs(gs.force - result.force).max()
+                                                         / np.abs(result.force).max()))
+        else:
+            row.update(gs_solve_s=None, gs_note=f"skipped: more than {args.gs_max_unknowns} unknowns")
+        problem.destroy()
+        row["peak_rss_bytes_max_rank"] = comm.allreduce(
+            resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, op=MPI.MAX)
+        rows.append(row)
+        if comm.Get_rank() == 0:
+            print(json.dumps(row), flush=True)
+    if comm.Get_rank() == 0:
+        Path(args.json).write_text(json.dumps(rows, indent=1))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[32, 64, 128])
+    parser.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--gs-max-unknowns", type=int, default=64 * 64,
+                        help="run the Gauss-Seidel reference up to this many unknowns")
+    parser.add_argument("--output", default="results/bench_normal.json")
+    parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--json", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.worker:
+        worker(args)
+        return
+    bindir = Path(sys.executable).parent
+    mpiexec = os.environ.get("MPIEXEC") or (str(bindir / "mpiexec") if (bindir / "mpiexec").exists() else "mpiexec")
+    rows = []
+    for ranks in args.ranks:
+        with tempfile.TemporaryDirectory() as tmp:
+            out = Path(tmp) / "rows.json"
+            cmd = [mpiexec, "-n", str(ranks), sys.executable, __file__, "--worker", "--json", str(out),
+                   "--repeats", str(args.repeats), "--gs-max-unknowns", str(args.gs_max_unknowns),
+                   "--sizes", *map(str, args.sizes)]
+            subprocess.run(cmd, check=True)
+            rows.extend(json.loads(out.read_text()))
+    report = {"benchmark": "normal contact, displacement control at ~25 % geometric overlap",
+              "machine": {"cpus": os.cpu_count()}, "rows": rows}
+    by = {(r["nodes_per_side"], r["ranks"]): r for r in rows}
+    report["speedup_2_ranks"] = {str(n): by[(n, 1)]["solve_s_median"] / by[(n, 2)]["solve_s_median"]
+                                 for n in args.sizes if (n, 1) in by and (n, 2) in by}
+    Path(args.output).parent.mkdir(parents=True, exist_ok=True)
+    Path(args.output).write_text(json.dumps(report, indent=1))
+    print(f"wrote {args.output}")
+
+
+if __name__ == "__main__":
+    main()

@@ -69,6 +69,28 @@ def normal_sweep_dataset(results: Sequence[NormalResult], spacing: float, dim: s
     return ds
 
 
+def netcdf_attrs(attrs: dict, prefix: str = "") -> dict:
+    """Attributes NetCDF can store: nested dicts flattened with ``_``, booleans
+    as 0/1, None as the string "none", anything else unsupported as its repr."""
+    out = {}
+    for key, value in attrs.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, dict):
+            out.update(netcdf_attrs(value, prefix=f"{name}_"))
+        elif isinstance(value, (bool, np.bool_)):
+            out[name] = int(value)
+        elif value is None:
+            out[name] = "none"
+        elif isinstance(value, (str, int, float, np.number)):
+            out[name] = value
+        elif isinstance(value, (list, tuple, np.ndarray)) and all(
+                isinstance(v, (int, float, np.number)) and not isinstance(v, bool) for v in np.ravel(value)):
+            out[name] = np.asarray(value)
+        else:
+            out[name] = repr(value)
+    return out
+
+
 def write_netcdf(ds: xr.Dataset, path: str | os.PathLike, comm=None) -> Path:
     """Write ``ds`` to ``path`` from rank 0 (atomically); all ranks return the path."""
     path = Path(path)
@@ -79,8 +101,7 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike, comm=None) -> Path:
             path.parent.mkdir(parents=True, exist_ok=True)
             tmp = path.with_name(path.name + ".part")
             clean = ds.copy()
-            clean.attrs = {k: (int(v) if isinstance(v, bool) else v) for k, v in ds.attrs.items()
-                           if v is not None}
+            clean.attrs = netcdf_attrs(ds.attrs)
             clean.to_netcdf(tmp, engine="h5netcdf", invalid_netcdf=False)
             os.replace(tmp, path)
         except Exception as exc:   # reported on every rank below, never swallowed

@@ -19,9 +19,19 @@ Example (the built-in default, also in ``studies/fractal_load_sweep.toml``)::
     [normal]
     loads = [20.0, 40.0, ...]       # N, increasing
     method = "ksp"                  # or "gauss-seidel"
+
+``surface.generator`` is ``"midpoint"``, ``"fourier"`` or ``"file"``; the
+other keys of the table are that function's arguments
+(:func:`~roughcontact.surfaces.midpoint_surface`,
+:func:`~roughcontact.surfaces.fourier_surface`,
+:func:`~roughcontact.surfaces.read_topography`, whose ``path`` is relative
+to the study file), plus ``detrend`` ("mean" or "plane"),
+``footprint_diameter`` (m, a cylindrical specimen) and ``mate_shift``
+([vx, vy] in m: the composite of the face and its mate shifted by v, Fig. 7).
 """
 from __future__ import annotations
 
+import inspect
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -43,8 +53,18 @@ DEFAULT_STUDY: dict[str, Any] = {
     "normal": {"loads": [float(p) for p in np.linspace(25.0, 500.0, 12)], "method": "ksp"},
 }
 
-_SURFACE_KEYS = {"midpoint": {"generator", "levels", "fractal_dimension", "spacing", "rms_height",
-                              "seed", "random_additions"}}
+# keys every surface table accepts besides its generator's own arguments
+_COMMON_SURFACE_KEYS = {"generator", "detrend", "mate_shift", "footprint_diameter"}
+
+
+def _generators() -> dict[str, Any]:
+    from .surfaces import fourier_surface, midpoint_surface, read_topography
+
+    return {"midpoint": midpoint_surface, "fourier": fourier_surface, "file": read_topography}
+
+
+def _parameters(function) -> set[str]:
+    return set(inspect.signature(function).parameters)
 
 
 @dataclass(frozen=True)
@@ -57,27 +77,49 @@ class Study:
     loads: tuple[float, ...]
     method: str = "ksp"
     description: str = ""
+    base_dir: Path | None = None
     raw: dict[str, Any] = field(default_factory=dict)
 
     def topography(self) -> Topography:
-        """Build the composite topography (identical on every rank)."""
+        """Build the composite topography Δh (identical on every rank).
+
+        Steps, each optional after the first: generate or read the surface;
+        detrend it; form the composite with its mate shifted by v (Fig. 7);
+        restrict it to a disc footprint (a cylindrical specimen, §3.4).
+        """
+        from .surfaces import detrend, disc, mated_composite
+
         spec = dict(self.surface)
         generator = spec.pop("generator")
-        if generator == "midpoint":
-            from .surfaces.midpoint import midpoint_surface
-
-            return midpoint_surface(**spec)
-        raise InputError("surface.generator", f"unknown generator {generator!r}")
+        mode = spec.pop("detrend", None)
+        shift = spec.pop("mate_shift", None)
+        diameter = spec.pop("footprint_diameter", None)
+        if generator == "file" and self.base_dir is not None and "path" in spec:
+            spec["path"] = str(self.base_dir / spec["path"])
+        try:
+            topography = _generators()[generator](**spec)
+        except TypeError as exc:   # a missing required key
+            raise InputError(f"surface ({generator})", str(exc)) from None
+        if mode is not None:
+            topography = detrend(topography, mode)
+        if diameter is not None:
+            topography = topography.with_footprint(
+                topography.footprint & disc(topography.shape, topography.spacing, diameter))
+        if shift is not None:
+            topography = mated_composite(topography, tuple(shift))
+        return topography
 
 
 def load_study(source: str | Path | dict | None = None) -> Study:
     """A :class:`Study` from a TOML path, a dict, or the built-in default (None)."""
+    base_dir = None
     if source is None:
         raw = DEFAULT_STUDY
     elif isinstance(source, dict):
         raw = source
     else:
         path = Path(source)
+        base_dir = path.resolve().parent
         if not path.is_file():
             raise InputError("study", f"no study file at {path}")
         try:
@@ -87,10 +129,11 @@ def load_study(source: str | Path | dict | None = None) -> Study:
     _only(raw, {"name", "description", "surface", "materials", "normal"}, "study")
     surface = dict(_section(raw, "surface"))
     generator = surface.get("generator", "midpoint")
-    if generator not in _SURFACE_KEYS:
-        raise InputError("surface.generator", f"must be one of {sorted(_SURFACE_KEYS)}, got {generator!r}")
+    generators = _generators()
+    if generator not in generators:
+        raise InputError("surface.generator", f"must be one of {sorted(generators)}, got {generator!r}")
     surface["generator"] = generator
-    _only(surface, _SURFACE_KEYS[generator], "surface")
+    _only(surface, _parameters(generators[generator]) | _COMMON_SURFACE_KEYS, "surface")
     materials = _section(raw, "materials")
     _only(materials, {"body1", "body2"}, "materials")
     bodies = []
@@ -116,7 +159,7 @@ def load_study(source: str | Path | dict | None = None) -> Study:
     return Study(name=str(raw.get("name", "study")), surface=surface,
                  interface=Interface(bodies[0], bodies[1]), loads=tuple(loads.tolist()),
                  method=str(normal.get("method", "ksp")), description=str(raw.get("description", "")),
-                 raw=raw)
+                 base_dir=base_dir, raw=raw)
 
 
 def _section(raw: dict, name: str) -> dict:

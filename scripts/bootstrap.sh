@@ -91,6 +91,6 @@ if ! "$vpy" -c "import petsc4py" >/dev/null 2>&1; then
 fi
 
 # --- the package and its Python dependencies -----------------------------------
-pip_install -e "$root[test]"
+pip_install -e "$root[test,topography]"
 touch "$stamp"
 echo "$vpy"

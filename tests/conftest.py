@@ -9,6 +9,15 @@ import pytest
 from mpi4py import MPI
 
 
+def pytest_configure(config):
+    """Under MPI each rank gets its own temporary base directory, so ranks do not
+    race to clean up one shared directory."""
+    if MPI.COMM_WORLD.Get_size() > 1 and not config.option.basetemp:
+        import tempfile
+
+        config.option.basetemp = tempfile.mkdtemp(prefix=f"pytest-rank{MPI.COMM_WORLD.Get_rank()}-")
+
+
 @pytest.fixture
 def comm():
     return MPI.COMM_WORLD

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InputError
 from ..materials import Interface
 from ..surfaces.topography import Topography
 
@@ -63,7 +64,8 @@ class NormalProblem:
         self.operator = assemble_flexibility(topography, interface, comm) if operator is None else operator
         rows = self.operator.getOwnershipRange()
         if tuple(rows) != (self.start, self.stop) or self.operator.getSize()[0] != self.size:
-            raise ValueError("operator rows do not match the footprint nodes' ownership")
+            raise InputError("operator", f"has {self.operator.getSize()[0]} rows owned {tuple(rows)} on this "
+                             f"rank; the footprint has {self.size} nodes owned ({self.start}, {self.stop})")
         self._all_xy = xy - self.centroid
 
     @property

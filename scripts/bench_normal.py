@@ -98,7 +98,7 @@ def main() -> None:
     parser.add_argument("--sizes", type=int, nargs="+", default=[32, 64, 128])
     parser.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--gs-max-unknowns", type=int, default=64 * 64,
+    parser.add_argument("--gs-max-unknowns", type=int, default=128 * 128,
                         help="run the Gauss-Seidel reference up to this many unknowns")
     parser.add_argument("--output", default="results/bench_normal.json")
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
@@ -125,7 +125,33 @@ def main() -> None:
                                  for n in args.sizes if (n, 1) in by and (n, 2) in by}
     Path(args.output).parent.mkdir(parents=True, exist_ok=True)
     Path(args.output).write_text(json.dumps(report, indent=1))
-    print(f"wrote {args.output}")
+    figure = Path(args.output).with_suffix(".png")
+    chart(rows, figure)
+    print(f"wrote {args.output} and {figure}")
+
+
+def chart(rows, path: Path) -> None:
+    """Solve time against unknowns, Krylov and Gauss-Seidel, per rank count."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(5.5, 4), constrained_layout=True)
+    for ranks in sorted({r["ranks"] for r in rows}):
+        sel = [r for r in rows if r["ranks"] == ranks]
+        ax.loglog([r["unknowns"] for r in sel], [r["solve_s_median"] for r in sel], "o-",
+                  label=f"KSP CG, {ranks} rank(s)")
+        gs = [r for r in sel if r.get("gs_solve_s")]
+        if gs:
+            ax.loglog([r["unknowns"] for r in gs], [r["gs_solve_s"] for r in gs], "s--",
+                      label=f"Gauss-Seidel, {ranks} rank(s)")
+    ax.set_xlabel("unknowns N (footprint nodes)")
+    ax.set_ylabel("normal solve time [s] (median)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
 
 
 if __name__ == "__main__":

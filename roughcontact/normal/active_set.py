@@ -99,12 +99,9 @@ class ActiveSetSolver:
         self.active: np.ndarray | None = None
         self.guesses = np.zeros((n, 4))
         self.rigid = np.zeros(3)
-        self._x, self._y = problem.operator.createVecs()
 
     def destroy(self) -> None:
         self.inner.destroy()
-        self._x.destroy()
-        self._y.destroy()
 
     def __enter__(self):
         return self
@@ -161,7 +158,7 @@ class ActiveSetSolver:
 
         if control == "load" and loads[0] == 0.0:
             return self._finish(np.zeros(n), np.zeros(n, bool), rigid, 0, 0, 0.0, (), control, t0,
-                                zero_load=True)
+                                -pb.interpenetration(rigid))
 
         active = self._initial_active(rigid, free, loads)
         seen: dict[bytes, int] = {}
@@ -177,14 +174,14 @@ class ActiveSetSolver:
                     active = w > 0.0
                 else:
                     return self._finish(np.zeros(n), active, rigid, outer, linear_its, 0.0,
-                                        tuple(history), control, t0)
+                                        tuple(history), control, t0, -w)
             self.inner.set_active(active)
             rigid, pressure, its = self._solve_on_set(active, rigid, free, fixed, loads)
             if pressure is None:       # singular load system: enlarge the set and retry
                 active = self._enlarge(active, rigid)
                 continue
             linear_its += its
-            gap = self._gap(pressure, rigid)
+            gap = self._gap(pressure, rigid, active)
             p_max = float(pb.allmax(pressure.max(initial=0.0)))
             w_scale = self._w_scale(rigid)
             tension = active & (pressure < -tol * p_max)
@@ -195,7 +192,7 @@ class ActiveSetSolver:
             if n_changes.sum() == 0:
                 pressure = np.where(active, np.maximum(pressure, 0.0), 0.0)
                 return self._finish(pressure, active, rigid, outer, linear_its, residual,
-                                    tuple(history), control, t0)
+                                    tuple(history), control, t0, gap)
             active = (active & ~tension) | penetration
             key = self._set_key(active)
             if key in seen:
@@ -265,11 +262,12 @@ class ActiveSetSolver:
         threshold = np.partition(values, values.size - k)[values.size - k]
         return active | (w >= threshold)
 
-    def _gap(self, pressure: np.ndarray, rigid: np.ndarray) -> np.ndarray:
-        """Deformed gap g = H p − w (Eq. 7: zero on S, positive outside)."""
-        self._x.getArray()[:] = pressure
-        self.problem.operator.mult(self._x, self._y)
-        return self._y.getArray().copy() - self.problem.interpenetration(rigid)
+    def _gap(self, pressure: np.ndarray, rigid: np.ndarray, active: np.ndarray) -> np.ndarray:
+        """Deformed gap g = H p − w (Eq. 7: zero on S, positive outside); p is zero off S."""
+        from ..elastic.petsc import apply_on_columns
+
+        pb = self.problem
+        return apply_on_columns(pb.operator, pressure, active, pb.start) - pb.interpenetration(rigid)
 
     def _w_scale(self, rigid) -> float:
         w = self.problem.interpenetration(rigid)
@@ -290,11 +288,10 @@ class ActiveSetSolver:
         return b"".join(self.problem.comm.allgather(digest))
 
     def _finish(self, pressure, active, rigid, outer, linear_its, residual, history, control, t0,
-                zero_load: bool = False) -> NormalResult:
+                gap) -> NormalResult:
         pb = self.problem
         self.active = active.copy()
         self.rigid = rigid.copy()
-        gap = self._gap(pressure, rigid) if not zero_load else pb.gap0 - rigid[0]
         forces = pb.gather(pressure)
         contact = pb.gather(active)
         gaps = pb.gather(np.where(active, 0.0, gap))

@@ -89,7 +89,8 @@ def loop_energy(approach: float, radius: float, contact_modulus: float, amplitud
     """Energy dissipated per cycle between ±Q* (area of the Q–δx loop).
 
     ΔW = (24/5) f P δ0 [1 − (1 − t*)^(5/3) − (5 t*/6)(1 + (1 − t*)^(2/3))], t* = Q*/(fP),
-    Johnson's Eq. 7.59 written with δ0 = f a²/R; it equals 4 E_f(Q*).
+    Mindlin & Deresiewicz's result (Johnson 1985, §7.3) written with δ0 = f a²/R, derived
+    here from Masing's rule δx_unload(Q) = δx(Q*) − 2 δx((Q* − Q)/2); it equals 4 E_f(Q*).
     """
     t, p_load, delta0 = _ratio(approach, radius, contact_modulus, amplitude, friction)
     return 4.8 * friction * p_load * delta0 * (1.0 - (1.0 - t) ** (5.0 / 3.0)

@@ -1,0 +1,21 @@
+"""Tangential loading of a rough contact: the discrete Cattaneo theorem (§4–§5).
+
+A partial-slip state at shear load Q is the difference of two normal
+solutions (Eqs. 21–24): :class:`CattaneoSolver` builds it at one Q,
+:func:`tangential_sweep` over Q from 0 to fP, :func:`fretting_cycle` the
+cyclic (Mindlin–Deresiewicz) loop between ±Q*. Results are exact for β = γ
+= 0 and labelled the uncoupled approximation otherwise (:mod:`.model`).
+"""
+from .cattaneo import CattaneoSolver, first_touch_gap, incipient_sliding_energy
+from .dataset import fretting_dataset, tangential_dataset
+from .energy import frictional_energy, loop_area, stored_energy, work
+from .fretting import FrettingCycle, fretting_cycle, reversal_traction
+from .model import UncoupledApproximationWarning, cattaneo_model
+from .result import TangentialState
+from .sweep import TangentialSweep, tangential_loads, tangential_sweep
+
+__all__ = ["CattaneoSolver", "FrettingCycle", "TangentialState", "TangentialSweep",
+           "UncoupledApproximationWarning", "cattaneo_model", "first_touch_gap", "fretting_cycle",
+           "fretting_dataset", "frictional_energy", "incipient_sliding_energy", "loop_area",
+           "reversal_traction", "stored_energy", "tangential_dataset", "tangential_loads",
+           "tangential_sweep", "work"]

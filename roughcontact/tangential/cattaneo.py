@@ -1,0 +1,287 @@
+"""The discrete Cattaneo theorem: partial slip from a second normal solve (§4.2, Eqs. 20–24).
+
+Under a tangential load Q < fP applied monotonically at constant normal
+load P, the shear traction is the full-sliding traction f p minus a
+correction f p* that vanishes on the slip set (Eq. 21). With the γ = 0
+kernel (Eq. 17) the correction satisfies the normal contact equations on
+the stick set for a smaller approach δz* and the SAME rotation as the
+actual normal problem (Eq. 23), so
+
+- p* is the normal solution at P* = P − Q/f with the rotation fixed
+  (a load-controlled solve of :class:`~roughcontact.normal.ActiveSetSolver`);
+- the stick set is the contact set of p*, the slip set the rest of the
+  contact set of p;
+- q = f (p − p*) along Q (Eq. 21) and δx = f (δz − δz*) (Eq. 24);
+- on the contact set u_x = f (u_z − H p*) = δx − f g*, with g* the deformed
+  gap of the corrective problem: u_x = δx in the stick set (Eq. 20) and the
+  slip is g = f g* ≥ 0 in the slip set.
+
+At Q = fP the correction vanishes (p* = 0) and displacements are no longer
+determined; :meth:`CattaneoSolver.incipient_sliding` returns the limit
+Q → fP⁻, whose dissipated energy is Eq. 27.
+
+References: C. Cattaneo, Rend. Accad. Naz. Lincei 27 (1938) 342–348;
+J.R. Barber, M. Ciavarella, Int. J. Solids Struct. 37 (2000) 29–43
+(the correction theorem); M. Ciavarella, Int. J. Solids Struct. 35 (1998)
+2349–2362 and J. Jäger, Wear 209 (1997) 210–220 (Q = f(P − P*)).
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from ..errors import InputError
+from ..normal.active_set import ActiveSetSettings, ActiveSetSolver
+from ..normal.problem import NormalProblem
+from ..normal.result import NormalResult
+from .energy import frictional_energy, stored_energy
+from .model import cattaneo_model
+from .result import TangentialState
+
+
+def check_friction(friction) -> float:
+    """f as a float, or :class:`InputError` unless finite and > 0."""
+    try:
+        f = float(friction)
+    except (TypeError, ValueError):
+        raise InputError("friction", f"must be a number, got {friction!r}") from None
+    if not math.isfinite(f) or f <= 0.0:
+        raise InputError("friction", f"the Coulomb coefficient f must be finite and > 0, got {friction!r}")
+    return f
+
+
+def check_direction(direction) -> tuple[float, float]:
+    """The unit vector along ``direction`` (any non-zero in-plane vector)."""
+    try:
+        ex, ey = (float(v) for v in direction)
+    except (TypeError, ValueError):
+        raise InputError("direction", f"must be an in-plane vector (x, y), got {direction!r}") from None
+    norm = math.hypot(ex, ey)
+    if not math.isfinite(norm):
+        raise InputError("direction", f"must be finite, got {direction!r}")
+    if norm == 0.0:
+        raise InputError("direction", "is the zero vector: the tangential load Q needs a direction")
+    return ex / norm, ey / norm
+
+
+def check_tangential(tangential, friction: float, load: float, name: str = "tangential") -> float:
+    """Q as a float in [0, fP), or :class:`InputError` saying why not."""
+    try:
+        q = float(tangential)
+    except (TypeError, ValueError):
+        raise InputError(name, f"must be a number, got {tangential!r}") from None
+    if not math.isfinite(q):
+        raise InputError(name, f"must be finite, got {tangential!r}")
+    if q < 0.0:
+        raise InputError(name, f"must be >= 0, got {q!r}; reverse `direction` for a load the other way")
+    if q >= friction * load:
+        raise InputError(
+            name, f"Q = {q:.6g} N >= fP = {friction * load:.6g} N: full sliding. The traction is then f p "
+                  "everywhere but the tangential displacements are undetermined (§5.2); use "
+                  "CattaneoSolver.incipient_sliding() for the limit Q -> fP (Eq. 27)")
+    return q
+
+
+def first_touch_gap(problem: NormalProblem, rotation: tuple[float, float]) -> np.ndarray:
+    """Undeformed gap Δh on the footprint (global vector) with ``rotation`` fixed, zero at first touch.
+
+    This is the deformed gap of the corrective problem in the limit P* → 0
+    (Eq. 23 with p* = 0): the Δh of Eq. 27.
+    """
+    w0 = problem.gather(problem.interpenetration(np.array([0.0, *rotation])))
+    return w0.max() - w0
+
+
+def incipient_sliding_energy(problem: NormalProblem, normal: NormalResult, friction: float) -> float:
+    """E_tot = Σ_S f² p̄ Δh (Eq. 27): the energy dissipated from Q = 0 to incipient full sliding, J.
+
+    Δh is the undeformed gap at first touch with the rotation of ``normal``
+    fixed (:func:`first_touch_gap`). Needs no corrective solve, so E_tot
+    against P (Fig. 12) costs one normal solve per load.
+    """
+    friction = check_friction(friction)
+    check_normal(problem, normal)
+    gap = problem.to_field(first_touch_gap(problem, normal.rotation), np.nan)
+    return float(friction**2 * np.sum(normal.force[normal.contact] * gap[normal.contact]))
+
+
+class CattaneoSolver:
+    """Tangential states of one normal contact under Q along ``direction`` (Eqs. 20–27).
+
+    Keeps one corrective :class:`~roughcontact.normal.ActiveSetSolver`, so a
+    sweep of increasing Q (decreasing P*) warm-starts each corrective solve
+    from the last stick set; the first starts from the actual contact set.
+
+    Parameters
+    ----------
+    problem
+        The :class:`~roughcontact.normal.NormalProblem` that ``normal`` solved.
+    normal
+        The actual normal solution (load P > 0, approach δz, rotation).
+    friction
+        Coulomb coefficient f > 0.
+    direction
+        In-plane direction of Q, any non-zero vector (normalised here).
+    method, settings, rtol, options
+        The corrective solver's, as :class:`~roughcontact.normal.ActiveSetSolver`.
+    prefix
+        PETSc options prefix of the corrective solves (``-cattaneo_ksp_monitor``).
+
+    Notes
+    -----
+    For materials with β ≠ 0 or γ ≠ 0 the states are the uncoupled
+    approximation, labelled in :attr:`model` (warned once per process).
+    """
+
+    def __init__(self, problem: NormalProblem, normal: NormalResult, friction: float,
+                 direction=(1.0, 0.0), method: str = "ksp",
+                 settings: ActiveSetSettings = ActiveSetSettings(), rtol: float | None = None,
+                 options: dict | None = None, prefix: str = "cattaneo_"):
+        self.friction = check_friction(friction)
+        self.direction = check_direction(direction)
+        check_normal(problem, normal)
+        self.problem = problem
+        self.normal = normal
+        self.model = cattaneo_model(problem.interface)
+        self.solver = ActiveSetSolver(problem, method, settings=settings, rtol=rtol, options=options,
+                                      prefix=prefix)
+        footprint = problem.topography.footprint
+        local = slice(problem.start, problem.stop)
+        # warm start of the first corrective solve: the actual contact set and motion (Eq. 23
+        # receding: the stick set is a subset of it)
+        self.solver.active = normal.contact[footprint][local].copy()
+        self.solver.rigid = np.array([normal.closure, *normal.rotation])
+        self._q, self._u = problem.operator.createVecs()
+
+    @property
+    def limit_load(self) -> float:
+        """fP, the tangential load of incipient full sliding (N)."""
+        return self.friction * self.normal.load
+
+    def destroy(self) -> None:
+        """Free the corrective solver (collective)."""
+        self.solver.destroy()
+        self._q.destroy()
+        self._u.destroy()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.destroy()
+
+    # ------------------------------------------------------------------ API
+    def solve(self, tangential: float) -> TangentialState:
+        """The partial-slip state at Q, 0 ≤ Q < fP (Eqs. 21–26).
+
+        Raises
+        ------
+        InputError
+            ``tangential`` negative, not finite, or ≥ fP (full sliding:
+            displacements undetermined).
+        """
+        t0 = time.perf_counter()
+        f, normal = self.friction, self.normal
+        q_load = check_tangential(tangential, f, normal.load)
+        if q_load == 0.0:
+            # no shear: the corrective problem is the actual one
+            corrective = normal
+            traction = np.zeros_like(normal.force)
+            stick = normal.contact.copy()
+        else:
+            corrective = self.solver.solve_load(normal.load - q_load / f, rotation=normal.rotation)
+            # Eq. 21; the stick set lies inside the contact set (receding problem), and a node of
+            # p* outside it would show as negative traction in coulomb_violation
+            stick = corrective.contact.copy()
+            traction = f * (normal.force - corrective.force)
+        slip = normal.contact & ~stick
+        slip_distance = np.where(normal.contact, 0.0, np.nan)
+        slip_distance[slip] = f * corrective.gap[slip]
+        approach = f * (normal.closure - corrective.closure)
+        return self._state(q_load, corrective, traction, stick, slip, slip_distance, approach,
+                           normal.load - q_load / f, corrective.closure, limit=False, t0=t0)
+
+    def incipient_sliding(self) -> TangentialState:
+        """The limit Q → fP⁻ of incipient full sliding (§5.2, Eq. 27).
+
+        p* → 0 and the stick set shrinks to the node(s) touching first with the
+        rotation fixed, δz* → the approach at first touch, q = f p everywhere,
+        and the slip is g = f Δh with Δh the undeformed gap at first touch, so
+        E_f = Σ_S f² p̄ Δh = E_tot (Eq. 27). Beyond this limit displacements are
+        undetermined.
+        """
+        t0 = time.perf_counter()
+        f, normal, pb = self.friction, self.normal, self.problem
+        gap = pb.to_field(first_touch_gap(pb, normal.rotation), np.nan)
+        first_touch = float(normal.closure - pb.allmax(pb.interpenetration(
+            np.array([normal.closure, *normal.rotation])).max(initial=-np.inf)))
+        traction = np.where(normal.contact, f * normal.force, 0.0)
+        stick = np.zeros_like(normal.contact)
+        slip = normal.contact.copy()
+        slip_distance = np.where(slip, f * gap, np.nan)
+        approach = f * (normal.closure - first_touch)
+        return self._state(self.limit_load, None, traction, stick, slip, slip_distance, approach,
+                           0.0, first_touch, limit=True, t0=t0)
+
+    # ------------------------------------------------------------ internals
+    def _state(self, q_load, corrective, traction, stick, slip, slip_distance, approach,
+               corrective_load, corrective_closure, limit, t0) -> TangentialState:
+        f, normal, pb = self.friction, self.normal, self.problem
+        s = pb.topography.spacing
+        displacement = self._displacement(traction)
+        q_stick = float(traction[stick].sum())
+        q_slip = float(traction[slip].sum())
+        contact = normal.contact
+        p_max = float(normal.force.max())
+        excess = np.maximum(traction - f * normal.force, -traction)[contact | stick]
+        violation = max(0.0, float(excess.max(initial=0.0)) / (f * p_max)) if p_max > 0 else 0.0
+        return TangentialState(
+            tangential=float(q_load), friction=f, direction=self.direction, normal=normal,
+            corrective=corrective, traction=traction, stick=stick, slip=slip,
+            displacement=displacement, slip_distance=slip_distance,
+            tangential_approach=float(approach), corrective_load=float(corrective_load),
+            corrective_closure=float(corrective_closure),
+            stick_area=float(stick.sum()) * s**2, slip_area=float(slip.sum()) * s**2,
+            stick_force=q_stick, slip_force=q_slip,
+            centroid=_centroid(traction, contact, s), stick_centroid=_centroid(traction, stick, s),
+            slip_centroid=_centroid(traction, slip, s),
+            frictional_energy=frictional_energy(normal.force, slip_distance, slip, f),
+            stored_energy=stored_energy(traction, displacement),
+            coulomb_violation=violation, model=self.model, limit=limit, spacing=s,
+            elapsed=time.perf_counter() - t0)
+
+    def _displacement(self, traction: np.ndarray) -> np.ndarray:
+        """u_x = H q̄ (Eq. 17) on the footprint, NaN outside it."""
+        pb = self.problem
+        footprint = pb.topography.footprint
+        self._q.getArray()[:] = traction[footprint][pb.start:pb.stop]
+        pb.operator.mult(self._q, self._u)
+        return pb.to_field(pb.gather(self._u.getArray().copy()), np.nan)
+
+
+def _centroid(traction: np.ndarray, zone: np.ndarray, spacing: float) -> tuple[float, float]:
+    """Centroid of the shear forces in ``zone`` (grid frame, m); NaN if they sum to zero."""
+    total = float(traction[zone].sum())
+    if total <= 0.0:
+        return (math.nan, math.nan)
+    i, j = np.nonzero(zone)
+    weights = traction[zone]
+    return (float(weights @ i) * spacing / total, float(weights @ j) * spacing / total)
+
+
+def check_normal(problem: NormalProblem, normal) -> None:
+    """:class:`InputError` unless ``normal`` solved ``problem`` with a load P > 0."""
+    if not isinstance(normal, NormalResult):
+        raise InputError("normal", f"must be a NormalResult, got {type(normal).__name__}")
+    if normal.force.shape != problem.topography.shape:
+        raise InputError("normal", f"its fields have shape {normal.force.shape}, the problem's grid "
+                                   f"{problem.topography.shape}: it was solved on another problem")
+    if not np.allclose(normal.reference_point, problem.centroid, rtol=0.0,
+                       atol=1e-9 * problem.topography.spacing):
+        raise InputError("normal", "its moments refer to another footprint centroid: "
+                                   "it was solved on another problem")
+    if not normal.load > 0.0:
+        raise InputError("normal", f"the normal load P must be > 0 for a tangential load "
+                                   f"(fP is the limit of Q), got P = {normal.load!r}")

@@ -1,0 +1,116 @@
+"""Bad input to the tangential solvers: an InputError naming the parameter, never a wrong number."""
+from __future__ import annotations
+
+from contextlib import contextmanager
+
+import numpy as np
+import pytest
+
+from conftest import sphere_heights
+from roughcontact.errors import InputError
+from roughcontact.materials import Interface, Material
+from roughcontact.normal import ActiveSetSolver, NormalProblem
+from roughcontact.surfaces import Topography
+from roughcontact.tangential import CattaneoSolver, fretting_cycle, tangential_sweep
+
+EXACT = Interface(Material(200e9, 0.0), Material(200e9, 0.0))
+
+
+@pytest.fixture(scope="module")
+def comm():
+    from mpi4py import MPI
+
+    return MPI.COMM_WORLD
+
+
+@pytest.fixture(scope="module")
+def sphere(comm):
+    s = 2e-6
+    topo = Topography(sphere_heights(21, s, 0.01), s)
+    problem = NormalProblem(topo, EXACT, comm)
+    with ActiveSetSolver(problem) as solver:
+        normal = solver.solve_closure((8 * s) ** 2 / 0.01)
+    yield problem, normal
+    problem.destroy()
+
+
+@contextmanager
+def raises(parameter: str, match: str | None = None):
+    """pytest.raises(InputError) that also checks the error names ``parameter``."""
+    with pytest.raises(InputError, match=match) as info:
+        yield info
+    assert info.value.parameter == parameter, info.value
+
+
+@pytest.mark.parametrize("friction", [0.0, -0.3, float("nan"), float("inf"), "rough", None])
+def test_friction_must_be_positive(sphere, friction):
+    problem, normal = sphere
+    with raises("friction"):
+        CattaneoSolver(problem, normal, friction)
+    with raises("friction"):
+        tangential_sweep(problem, normal, friction, steps=3)
+
+
+def test_full_sliding_is_refused_with_the_reason(sphere):
+    """Q ≥ fP is full sliding: displacements are undetermined (§5.2); the limit is offered instead."""
+    problem, normal = sphere
+    with CattaneoSolver(problem, normal, 0.4) as solver:
+        for q in (0.4 * normal.load, 0.5 * normal.load):
+            with raises("tangential", match="undetermined"):
+                solver.solve(q)
+        with raises("tangential", match=">= 0"):
+            solver.solve(-1e-3)
+        with raises("tangential"):
+            solver.solve(float("nan"))
+        # just below fP is fine, and the limit itself is a method
+        assert solver.solve(0.4 * normal.load * (1 - 1e-6)).slip_area > 0.0
+        assert solver.incipient_sliding().limit
+    with raises("tangential", match="undetermined"):
+        tangential_sweep(problem, normal, 0.4, tangential=[0.0, 0.4 * normal.load])
+    with raises("amplitude", match="undetermined"):
+        fretting_cycle(problem, normal, 0.4, 0.4 * normal.load, steps=4)
+
+
+@pytest.mark.parametrize("direction", [(0.0, 0.0), (np.nan, 1.0), (1.0,), "x", (np.inf, 0.0)])
+def test_direction_must_be_a_nonzero_vector(sphere, direction):
+    problem, normal = sphere
+    with raises("direction"):
+        CattaneoSolver(problem, normal, 0.3, direction=direction)
+
+
+def test_normal_state_must_belong_to_the_problem(comm, sphere):
+    problem, normal = sphere
+    with ActiveSetSolver(problem) as solver:
+        unloaded = solver.solve_load(0.0)
+    with raises("normal", match="P must be > 0"):
+        CattaneoSolver(problem, unloaded, 0.3)
+    other = NormalProblem(Topography(sphere_heights(15, 2e-6, 0.01), 2e-6), EXACT, comm)
+    try:
+        with raises("normal", match="another problem"):
+            CattaneoSolver(other, normal, 0.3)
+    finally:
+        other.destroy()
+    with raises("normal"):
+        CattaneoSolver(problem, "not a result", 0.3)
+
+
+def test_sweep_and_cycle_arguments(sphere):
+    problem, normal = sphere
+    with raises("steps"):
+        tangential_sweep(problem, normal, 0.3, steps=0)
+    with raises("steps"):
+        tangential_sweep(problem, normal, 0.3, steps=2.5)
+    with raises("steps", match="not both"):
+        tangential_sweep(problem, normal, 0.3, steps=3, tangential=[0.0])
+    with raises("steps", match="not both"):
+        tangential_sweep(problem, normal, 0.3)
+    with raises("tangential", match="increasing"):
+        tangential_sweep(problem, normal, 0.3, tangential=[0.02 * normal.load, 0.01 * normal.load])
+    with raises("tangential", match="empty"):
+        tangential_sweep(problem, normal, 0.3, tangential=[])
+    with raises("amplitude", match="> 0"):
+        fretting_cycle(problem, normal, 0.3, 0.0, steps=4)
+    with raises("steps"):
+        fretting_cycle(problem, normal, 0.3, 0.1 * normal.load, steps=0)
+    with raises("index"):
+        fretting_cycle(problem, normal, 0.3, 0.1 * normal.load, steps=2).traction(9)

@@ -110,6 +110,13 @@ class ActiveSetSolver:
         self.destroy()
 
     # ------------------------------------------------------------------ API
+    def warm_start(self, result: NormalResult) -> None:
+        """Start the next solve from ``result`` (a solution of the same problem):
+        its contact set and rigid motion, e.g. a corrective solve from the actual one."""
+        pb = self.problem
+        self.active = result.contact[pb.topography.footprint][pb.start:pb.stop].copy()
+        self.rigid = np.array([result.closure, *result.rotation], dtype=float)
+
     def solve_closure(self, closure: float, rotation: tuple[float, float] = (0.0, 0.0)) -> NormalResult:
         """Displacement control: impose δz and (θx, θy) (Eq. 7)."""
         closure = _finite("closure", closure)

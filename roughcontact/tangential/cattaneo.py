@@ -147,12 +147,9 @@ class CattaneoSolver:
         self.model = cattaneo_model(problem.interface)
         self.solver = ActiveSetSolver(problem, method, settings=settings, rtol=rtol, options=options,
                                       prefix=prefix)
-        footprint = problem.topography.footprint
-        local = slice(problem.start, problem.stop)
         # warm start of the first corrective solve: the actual contact set and motion (Eq. 23
         # receding: the stick set is a subset of it)
-        self.solver.active = normal.contact[footprint][local].copy()
-        self.solver.rigid = np.array([normal.closure, *normal.rotation])
+        self.solver.warm_start(normal)
         self._q, self._u = problem.operator.createVecs()
 
     @property

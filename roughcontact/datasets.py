@@ -40,6 +40,18 @@ _SCALARS = {
 }
 
 
+def scalar_variables(items: Sequence, table: dict, dim: str) -> dict:
+    """CF variables along ``dim`` from a ``{name: (getter, units, long_name)}`` table."""
+    return {name: ((dim,), np.array([get(item) for item in items]), {"units": units, "long_name": long_name})
+            for name, (get, units, long_name) in table.items()}
+
+
+def grid_coords(shape: tuple[int, int], spacing: float) -> dict:
+    """The x, y node coordinates (m) of a field on the grid (axis 0 is x)."""
+    return {"x": ("x", np.arange(shape[0]) * spacing, {"units": "m", "long_name": "x"}),
+            "y": ("y", np.arange(shape[1]) * spacing, {"units": "m", "long_name": "y"})}
+
+
 def normal_sweep_dataset(results: Sequence[NormalResult], spacing: float, dim: str = "step",
                          fields: bool = True, attrs: dict | None = None) -> xr.Dataset:
     """One dataset of a sweep of normal solves along ``dim``.
@@ -48,14 +60,10 @@ def normal_sweep_dataset(results: Sequence[NormalResult], spacing: float, dim: s
     (dim, x, y).
     """
     n = len(results)
-    data = {}
-    for name, (get, units, long_name) in _SCALARS.items():
-        data[name] = ((dim,), np.array([get(r) for r in results]), {"units": units, "long_name": long_name})
+    data = scalar_variables(results, _SCALARS, dim)
     coords = {dim: (dim, np.arange(n), {"long_name": "index of the solve in the sweep"})}
     if fields and n:
-        nx, ny = results[0].force.shape
-        coords["x"] = ("x", np.arange(nx) * spacing, {"units": "m", "long_name": "x"})
-        coords["y"] = ("y", np.arange(ny) * spacing, {"units": "m", "long_name": "y"})
+        coords.update(grid_coords(results[0].force.shape, spacing))
         data["force"] = ((dim, "x", "y"), np.stack([r.force for r in results]),
                          {"units": "N", "long_name": "nodal contact force p̄ (Eq. 9)"})
         data["pressure"] = ((dim, "x", "y"), np.stack([r.pressure for r in results]),

@@ -15,13 +15,12 @@ import argparse
 import json
 import os
 import resource
-import subprocess
-import sys
-import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
+
+from _ranks import run_on_ranks
 
 
 def worker(args) -> None:
@@ -107,17 +106,8 @@ def main() -> None:
     if args.worker:
         worker(args)
         return
-    bindir = Path(sys.executable).parent
-    mpiexec = os.environ.get("MPIEXEC") or (str(bindir / "mpiexec") if (bindir / "mpiexec").exists() else "mpiexec")
-    rows = []
-    for ranks in args.ranks:
-        with tempfile.TemporaryDirectory() as tmp:
-            out = Path(tmp) / "rows.json"
-            cmd = [mpiexec, "-n", str(ranks), sys.executable, __file__, "--worker", "--json", str(out),
-                   "--repeats", str(args.repeats), "--gs-max-unknowns", str(args.gs_max_unknowns),
-                   "--sizes", *map(str, args.sizes)]
-            subprocess.run(cmd, check=True)
-            rows.extend(json.loads(out.read_text()))
+    rows = run_on_ranks(__file__, args.ranks, ["--repeats", str(args.repeats), "--gs-max-unknowns", str(args.gs_max_unknowns),
+                   "--sizes", *map(str, args.sizes)])
     report = {"benchmark": "normal contact, displacement control at ~25 % geometric overlap",
               "machine": {"cpus": os.cpu_count()}, "rows": rows}
     by = {(r["nodes_per_side"], r["ranks"]): r for r in rows}

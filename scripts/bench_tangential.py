@@ -18,13 +18,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
-import sys
-import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
+
+from _ranks import run_on_ranks
 
 
 def worker(args) -> None:
@@ -115,17 +114,8 @@ def main() -> None:
     if args.worker:
         worker(args)
         return
-    bindir = Path(sys.executable).parent
-    mpiexec = os.environ.get("MPIEXEC") or (str(bindir / "mpiexec") if (bindir / "mpiexec").exists() else "mpiexec")
-    rows = []
-    for ranks in args.ranks:
-        with tempfile.TemporaryDirectory() as tmp:
-            out = Path(tmp) / "rows.json"
-            cmd = [mpiexec, "-n", str(ranks), sys.executable, __file__, "--worker", "--json", str(out),
-                   "--repeats", str(args.repeats), "--sizes", *map(str, args.sizes),
-                   "--steps", *map(str, args.steps)]
-            subprocess.run(cmd, check=True)
-            rows.extend(json.loads(out.read_text()))
+    rows = run_on_ranks(__file__, args.ranks, ["--repeats", str(args.repeats), "--sizes", *map(str, args.sizes),
+                   "--steps", *map(str, args.steps)])
     report = {"benchmark": "tangential sweep Q = 0 ... fP in N steps (+ the incipient-sliding limit) "
                            "against one normal solve (load control, free rotation, cold start)",
               "machine": {"cpus": os.cpu_count()}, "repeats": args.repeats, "rows": rows}

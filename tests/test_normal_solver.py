@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from conftest import sphere_heights
 from roughcontact.errors import ConvergenceError, InputError
 from roughcontact.materials import Interface, Material
 from roughcontact.normal import ActiveSetSettings, ActiveSetSolver, NormalProblem, solve_closures

@@ -156,7 +156,7 @@ class ActiveSetSolver:
     def _solve(self, rigid: np.ndarray, fixed: tuple[int, ...], loads: np.ndarray,
                control: str) -> NormalResult:
         t0 = time.perf_counter()
-        pb, comm, tol = self.problem, self.problem.comm, self.settings.tol
+        pb, tol = self.problem, self.settings.tol
         free = [k for k in range(3) if k not in fixed]
         n = pb.local_size
         rigid = rigid.astype(float).copy()

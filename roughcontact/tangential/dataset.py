@@ -15,6 +15,7 @@ import numpy as np
 import xarray as xr
 
 from .. import __version__
+from ..datasets import grid_coords, scalar_variables
 
 if TYPE_CHECKING:
     from .fretting import FrettingCycle
@@ -60,9 +61,7 @@ def tangential_dataset(sweep: "TangentialSweep", fields: bool = True,
     states = sweep.states
     normal = sweep.normal
     dim = "Q"
-    data = {name: ((dim,), np.array([get(s) for s in states], dtype=float),
-                   {"units": units, "long_name": long_name})
-            for name, (get, units, long_name) in _SCALARS.items()}
+    data = scalar_variables(states, _SCALARS, dim)
     data["work"] = ((dim,), sweep.work, {"units": "J", "long_name": "work of Q along δx, W = ∫ Q dδx "
                                                                   "(trapezoidal rule)"})
     coords = {
@@ -71,10 +70,7 @@ def tangential_dataset(sweep: "TangentialSweep", fields: bool = True,
                       {"units": "1", "long_name": "Q / (f P)"}),
     }
     if fields and states:
-        nx, ny = normal.force.shape
-        s = states[0].spacing
-        coords["x"] = ("x", np.arange(nx) * s, {"units": "m", "long_name": "x"})
-        coords["y"] = ("y", np.arange(ny) * s, {"units": "m", "long_name": "y"})
+        coords.update(grid_coords(normal.force.shape, states[0].spacing))
         data["traction"] = ((dim, "x", "y"), np.stack([st.traction for st in states]),
                             {"units": "N", "long_name": "nodal shear force q̄ along Q (Eq. 21)"})
         zone = np.stack([np.where(st.slip, 2, np.where(st.stick, 1, 0)) for st in states]).astype(np.int8)

@@ -1,0 +1,29 @@
+"""Shared by the benchmark scripts: run a worker under mpiexec for each rank count."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+
+def mpiexec() -> str:
+    """The launcher: $MPIEXEC, else the environment's own mpiexec, else the one on PATH."""
+    bindir = Path(sys.executable).parent
+    own = bindir / "mpiexec"
+    return os.environ.get("MPIEXEC") or (str(own) if own.exists() else "mpiexec")
+
+
+def run_on_ranks(script: str, ranks: list[int], worker_args: list[str]) -> list[dict]:
+    """Rows written by ``script --worker --json FILE <worker_args>`` on each rank count."""
+    rows = []
+    for n in ranks:
+        with tempfile.TemporaryDirectory() as tmp:
+            out = Path(tmp) / "rows.json"
+            cmd = [mpiexec(), "-n", str(n), sys.executable, script, "--worker", "--json", str(out),
+                   *worker_args]
+            subprocess.run(cmd, check=True)
+            rows.extend(json.loads(out.read_text()))
+    return rows

@@ -27,3 +27,16 @@ def run_on_ranks(script: str, ranks: list[int], worker_args: list[str]) -> list[
             subprocess.run(cmd, check=True)
             rows.extend(json.loads(out.read_text()))
     return rows
+
+
+def emit(comm, rows: list[dict], row: dict) -> None:
+    """Keep a worker's row and print it from rank 0 as it is measured."""
+    rows.append(row)
+    if comm.Get_rank() == 0:
+        print(json.dumps(row), flush=True)
+
+
+def write_rows(comm, rows: list[dict], path: str) -> None:
+    """Rank 0 writes the worker's rows for :func:`run_on_ranks` to collect."""
+    if comm.Get_rank() == 0:
+        Path(path).write_text(json.dumps(rows, indent=1))

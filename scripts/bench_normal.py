@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from _ranks import run_on_ranks
+from _ranks import emit, run_on_ranks, write_rows
 
 
 def worker(args) -> None:
@@ -85,11 +85,8 @@ def worker(args) -> None:
         problem.destroy()
         row["peak_rss_bytes_max_rank"] = comm.allreduce(
             resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, op=MPI.MAX)
-        rows.append(row)
-        if comm.Get_rank() == 0:
-            print(json.dumps(row), flush=True)
-    if comm.Get_rank() == 0:
-        Path(args.json).write_text(json.dumps(rows, indent=1))
+        emit(comm, rows, row)
+    write_rows(comm, rows, args.json)
 
 
 def main() -> None:

@@ -28,7 +28,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..collective import Collective
 from ..errors import ConvergenceError, InputError
+from ..errors import require_finite as _finite
 from .problem import NormalProblem
 from .result import NormalResult
 
@@ -68,7 +70,7 @@ def _inner_solver(problem: NormalProblem, method: str, rtol: float | None, optio
     raise InputError("method", f"must be 'ksp' or 'gauss-seidel', got {method!r}")
 
 
-class ActiveSetSolver:
+class ActiveSetSolver(Collective):
     """Reusable normal-contact solver on one problem (keeps the inner solver alive).
 
     Parameters
@@ -102,12 +104,6 @@ class ActiveSetSolver:
 
     def destroy(self) -> None:
         self.inner.destroy()
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.destroy()
 
     # ------------------------------------------------------------------ API
     def warm_start(self, result: NormalResult) -> None:
@@ -322,16 +318,6 @@ class ActiveSetSolver:
             elapsed=time.perf_counter() - t0, solver=self.inner.description, control=control,
             no_contact=n_contact == 0, full_contact=n_contact == pb.size,
             residual_history=tuple(history))
-
-
-def _finite(name: str, value) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(name, f"must be a number, got {value!r}") from None
-    if not np.isfinite(v):
-        raise InputError(name, f"must be finite, got {value!r}")
-    return v
 
 
 def _pair(name: str, value) -> tuple:

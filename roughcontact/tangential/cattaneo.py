@@ -32,7 +32,8 @@ import time
 
 import numpy as np
 
-from ..errors import InputError
+from ..collective import Collective
+from ..errors import InputError, require_finite
 from ..normal.active_set import ActiveSetSettings, ActiveSetSolver
 from ..normal.problem import NormalProblem
 from ..normal.result import NormalResult
@@ -43,11 +44,8 @@ from .result import TangentialState
 
 def check_friction(friction) -> float:
     """f as a float, or :class:`InputError` unless finite and > 0."""
-    try:
-        f = float(friction)
-    except (TypeError, ValueError):
-        raise InputError("friction", f"must be a number, got {friction!r}") from None
-    if not math.isfinite(f) or f <= 0.0:
+    f = require_finite("friction", friction)
+    if f <= 0.0:
         raise InputError("friction", f"the Coulomb coefficient f must be finite and > 0, got {friction!r}")
     return f
 
@@ -68,12 +66,7 @@ def check_direction(direction) -> tuple[float, float]:
 
 def check_tangential(tangential, friction: float, load: float, name: str = "tangential") -> float:
     """Q as a float in [0, fP), or :class:`InputError` saying why not."""
-    try:
-        q = float(tangential)
-    except (TypeError, ValueError):
-        raise InputError(name, f"must be a number, got {tangential!r}") from None
-    if not math.isfinite(q):
-        raise InputError(name, f"must be finite, got {tangential!r}")
+    q = require_finite(name, tangential)
     if q < 0.0:
         raise InputError(name, f"must be >= 0, got {q!r}; reverse `direction` for a load the other way")
     if q >= friction * load:
@@ -107,7 +100,7 @@ def incipient_sliding_energy(problem: NormalProblem, normal: NormalResult, frict
     return float(friction**2 * np.sum(normal.force[normal.contact] * gap[normal.contact]))
 
 
-class CattaneoSolver:
+class CattaneoSolver(Collective):
     """Tangential states of one normal contact under Q along ``direction`` (Eqs. 20–27).
 
     Keeps one corrective :class:`~roughcontact.normal.ActiveSetSolver`, so a
@@ -162,12 +155,6 @@ class CattaneoSolver:
         self.solver.destroy()
         self._q.destroy()
         self._u.destroy()
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.destroy()
 
     # ------------------------------------------------------------------ API
     def solve(self, tangential: float) -> TangentialState:

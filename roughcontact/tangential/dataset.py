@@ -96,7 +96,6 @@ def tangential_dataset(sweep: "TangentialSweep", fields: bool = True,
         "resticking_nodes": sweep.resticking_nodes,
         "solver": last.corrective.solver if last.corrective else normal.solver,
         "normal_elapsed": normal.elapsed, "sweep_elapsed": sweep.elapsed,
-        "sweep_cost_ratio": sweep.cost_ratio,
     })
     ds.attrs.update(attrs or {})
     return ds

@@ -69,11 +69,6 @@ class TangentialSweep:
         """W = ∫ Q dδx from the first state (trapezoidal rule, :func:`~.energy.work`), J."""
         return work(self.tangential, self.approach)
 
-    @property
-    def cost_ratio(self) -> float:
-        """Wall time of the sweep over that of the actual normal solve."""
-        return self.elapsed / self.normal.elapsed if self.normal.elapsed > 0 else float("nan")
-
     def dataset(self, fields: bool = True, attrs: dict | None = None):
         """The sweep as an xarray Dataset (:func:`~.dataset.tangential_dataset`)."""
         from .dataset import tangential_dataset

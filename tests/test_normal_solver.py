@@ -220,3 +220,22 @@ def test_options_database_selects_krylov_method(comm):
     gmres = solve(topo, comm, closure, options={"ksp_type": "gmres"})
     assert "gmres" in gmres.solver and "cg" in cg.solver
     np.testing.assert_allclose(gmres.force, cg.force, rtol=0, atol=1e-8 * np.abs(cg.force).max())
+
+
+@pytest.mark.parametrize("method", ["ksp", "gauss-seidel"])
+def test_solver_needs_only_a_petsc_mat(comm, method):
+    """Another Mat type (AIJ, same entries) gives the same state: the solvers use
+    only the Mat interface (mult, createSubMatrix), not the dense storage."""
+    topo = rough(levels=4)
+    closure = closure_for_fraction(topo, 0.3)
+    dense = solve(topo, comm, closure, method)
+    reference = NormalProblem(topo, ROCK, comm)
+    sparse_format = reference.operator.convert("aij")
+    problem = NormalProblem(topo, ROCK, comm, operator=sparse_format)
+    with ActiveSetSolver(problem, method) as solver:
+        res = solver.solve_closure(closure)
+    problem.destroy()
+    sparse_format.destroy()
+    reference.destroy()
+    np.testing.assert_array_equal(res.contact, dense.contact)
+    np.testing.assert_allclose(res.force, dense.force, rtol=0, atol=1e-9 * np.abs(dense.force).max())

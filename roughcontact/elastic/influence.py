@@ -12,8 +12,8 @@ the limit arcsin(1) = π/2 of the same formula, so the kernel is evaluated with
 arcsin(min(1, a/r)).
 
 On a regular grid H_ij depends only on (|Δi|, |Δj|): the kernel is tabulated
-once on the grid's offsets and rows are gathered from the table, so assembling
-a row costs one indexed read per entry.
+once on the grid's offsets, mirrored to signed offsets, and each row is a
+window of that table read at the footprint's nodes (a strided copy).
 """
 from __future__ import annotations
 
@@ -31,31 +31,51 @@ def punch_kernel(shape: tuple[int, int], spacing: float, compliance: float) -> n
     return compliance / (2.0 * np.pi * a) * np.arcsin(ratio)
 
 
-def influence_rows(kernel: np.ndarray, nodes: np.ndarray, rows: slice | np.ndarray,
-                   out: np.ndarray | None = None, block: int = 512) -> np.ndarray:
-    """Rows of the flexibility matrix H (Eq. 10) restricted to ``nodes``.
+def mirrored_kernel(kernel: np.ndarray) -> np.ndarray:
+    """The table over signed offsets: ext[a, b] = K[|a − (nx − 1)|, |b − (ny − 1)|]."""
+    nx, ny = kernel.shape
+    ext = np.empty((2 * nx - 1, 2 * ny - 1))
+    ext[nx - 1:, ny - 1:] = kernel
+    ext[: nx - 1, ny - 1:] = kernel[:0:-1, :]
+    ext[nx - 1:, : ny - 1] = kernel[:, :0:-1]
+    ext[: nx - 1, : ny - 1] = kernel[:0:-1, :0:-1]
+    return ext
+
+
+def influence_rows(kernel: np.ndarray, footprint: np.ndarray, rows: slice,
+                   out: np.ndarray | None = None, block: int = 256) -> np.ndarray:
+    """Rows of the flexibility matrix H (Eq. 10) over the footprint nodes.
+
+    The row of node (i, j) is the window of the mirrored table whose origin
+    sits on (i, j), read at the footprint's nodes: one strided copy per row
+    instead of an indexed gather.
 
     Parameters
     ----------
     kernel
-        Table from :func:`punch_kernel`.
-    nodes
-        Integer array (N, 2) of the (i, j) indices of the footprint nodes, in
-        the order of the unknowns.
+        Table from :func:`punch_kernel` (shape of the grid).
+    footprint
+        Boolean mask of the grid; the unknowns are its nodes in C order
+        (``numpy.argwhere(footprint)``).
     rows
-        Which rows (indices into ``nodes``) to build.
+        Which rows (a slice of the unknowns) to build.
     out
-        Optional output array (len(rows), N), any memory order.
+        Optional output array (rows, N), any memory order.
     block
-        Rows built per vectorised pass, to bound temporaries.
+        Rows built in a C-ordered buffer before each copy into ``out``.
     """
-    row_nodes = nodes[rows]
-    n_rows, n = row_nodes.shape[0], nodes.shape[0]
+    nx, ny = footprint.shape
+    ext = mirrored_kernel(kernel)
+    row_nodes = np.argwhere(footprint)[rows]
+    n_rows, n = row_nodes.shape[0], int(footprint.sum())
+    whole = bool(footprint.all())
     if out is None:
         out = np.empty((n_rows, n))
+    buffer = np.empty((min(block, n_rows), n))
     for start in range(0, n_rows, block):
         stop = min(start + block, n_rows)
-        di = np.abs(row_nodes[start:stop, 0:1] - nodes[None, :, 0])
-        dj = np.abs(row_nodes[start:stop, 1:2] - nodes[None, :, 1])
-        out[start:stop] = kernel[di, dj]
+        for k, (i, j) in enumerate(row_nodes[start:stop]):
+            window = ext[nx - 1 - i: 2 * nx - 1 - i, ny - 1 - j: 2 * ny - 1 - j]
+            buffer[k] = window.ravel() if whole else window[footprint]
+        out[start:stop] = buffer[: stop - start]
     return out

@@ -30,12 +30,11 @@ def assemble_flexibility(topography: Topography, interface: Interface, comm) -> 
     Unknowns are the footprint nodes in C order of the mask
     (``numpy.argwhere(topography.footprint)``). Entries are in m/N.
     """
-    nodes = np.argwhere(topography.footprint)
-    n = nodes.shape[0]
+    n = int(topography.footprint.sum())
     start, stop = ownership(n, comm)
     kernel = punch_kernel(topography.shape, topography.spacing, interface.compliance)
     local = np.empty((stop - start, n), order="F")
-    influence_rows(kernel, nodes, slice(start, stop), out=local)
+    influence_rows(kernel, topography.footprint, slice(start, stop), out=local)
     mat = PETSc.Mat().createDense(((stop - start, n), (stop - start, n)), array=local, comm=comm)
     mat.setOption(PETSc.Mat.Option.SYMMETRIC, True)
     mat.setOption(PETSc.Mat.Option.SPD, True)

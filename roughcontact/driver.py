@@ -4,6 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from .datasets import normal_sweep_dataset, write_netcdf
+from .errors import RoughContactError
 from .study import Study
 
 
@@ -23,19 +24,28 @@ def run_normal_study(study: Study, comm, output: str | Path, log=print) -> dict[
         f"{len(study.loads)} loads, {comm.Get_size()} rank(s), method {study.method}")
     problem = NormalProblem(topography, study.interface, comm)
     results = []
+    attrs = {"study": study.name, "description": study.description, "ranks": comm.Get_size()}
+    attrs.update(study.interface.attrs())
+    attrs.update({f"surface_{k}": v for k, v in topography.metadata.items()})
+    output = Path(output)
     try:
         with ActiveSetSolver(problem, study.method) as solver:
             for load in study.loads:
                 res = solver.solve_load(load)
                 results.append(res)
                 say("  " + res.summary())
+    except RoughContactError as exc:
+        # keep what was solved: the loads before the failure, and why it stopped
+        if results:
+            partial = output / f"{study.name}.partial.nc"
+            write_netcdf(normal_sweep_dataset(results, topography.spacing, dim="step", attrs={
+                **attrs, "incomplete": f"stopped at load {study.loads[len(results)]:g} N: {exc}"}),
+                partial, comm)
+            say(f"kept the {len(results)} solved load(s) in {partial}")
+        raise
     finally:
         problem.destroy()
-    attrs = {"study": study.name, "description": study.description, "ranks": comm.Get_size()}
-    attrs.update(study.interface.attrs())
-    attrs.update({f"surface_{k}": v for k, v in topography.metadata.items()})
     ds = normal_sweep_dataset(results, topography.spacing, dim="step", attrs=attrs)
-    output = Path(output)
     paths = {"netcdf": write_netcdf(ds, output / f"{study.name}.nc", comm)}
     if rank == 0:
         paths["figure"] = contact_area_vs_load(ds, output / f"{study.name}_area_vs_load.png",

@@ -99,3 +99,43 @@ def test_missing_or_broken_study_file(tmp_path):
     with pytest.raises(InputError) as info:
         load_study(tmp_path / "bad.toml")
     assert info.value.parameter == "study"
+
+
+def test_failed_sweep_keeps_the_solved_loads(comm, shared_dir, monkeypatch):
+    """A solver failure mid-sweep keeps the loads already solved, with the reason, and
+    re-raises; no complete-looking file is written."""
+    from roughcontact.errors import ConvergenceError
+    from roughcontact.normal import ActiveSetSolver
+
+    solve_load = ActiveSetSolver.solve_load
+    third = TINY["normal"]["loads"][2]
+
+    def fail_at_third(self, load, *args, **kwargs):   # same decision on every rank
+        if load == third:
+            raise ConvergenceError("ACTIVE_SET_MAX_ITERATIONS", "forced for the test")
+        return solve_load(self, load, *args, **kwargs)
+
+    monkeypatch.setattr(ActiveSetSolver, "solve_load", fail_at_third)
+    with pytest.raises(ConvergenceError):
+        run_normal_study(load_study(TINY), comm, shared_dir, log=lambda *a: None)
+    comm.Barrier()
+    with xr.open_dataset(shared_dir / "tiny.partial.nc", engine="h5netcdf") as ds:
+        assert ds.sizes["step"] == 2
+        np.testing.assert_allclose(ds["load"].values, TINY["normal"]["loads"][:2], rtol=1e-9)
+        assert "stopped at load 20 N" in ds.attrs["incomplete"]
+    assert not (shared_dir / "tiny.nc").exists()
+
+
+def test_command_line_reports_bad_study(tmp_path, comm):
+    """`roughcontact run` on a bad study prints one line naming the key and exits 2."""
+    import subprocess
+    import sys
+
+    if comm.Get_size() > 1:
+        pytest.skip("spawns a serial interpreter; run by the serial pass")
+    (tmp_path / "bad.toml").write_text('[surface]\ngenerator = "midpoint"\nlevels = 4\nfractal_dimension = 3.4\n'
+                                       '[materials]\nbody1 = { E = 1e9, nu = 0.2 }\n[normal]\nloads = [1.0]\n')
+    run = subprocess.run([sys.executable, "-m", "roughcontact", "run", str(tmp_path / "bad.toml"),
+                          "--output", str(tmp_path)], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 2, run.stderr
+    assert "fractal_dimension" in run.stderr and "Traceback" not in run.stderr

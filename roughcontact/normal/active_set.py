@@ -9,12 +9,19 @@ conditions (Eqs. 7a/7b with p ≥ 0) hold to a stated tolerance.
 The rigid-body motion r = (δz, θx, θy) enters through w = C r − gap0
 (:mod:`roughcontact.normal.problem`). Each component is either imposed
 (displacement control, Eq. 7) or free with its conjugate load imposed (load
-control, Eq. 8: P, Mx, My). For a fixed S the pressure is linear in r:
+control, Eq. 8: P, Mx, My).
 
-    p_S = z0 + Σ_k r_k Z_k,   H_SS z0 = C_fixed r_fixed − gap0,   H_SS Z_k = C_k,
+Load control is a damped Newton iteration on the free components of r,
+each step a displacement-controlled active-set solve. It minimises the
+convex function
 
-and the free components follow from the |free| × |free| system
-C_freeᵀ Z r_free = L_free − C_freeᵀ z0 (symmetric positive definite).
+    Φ(r) = max_{p ≥ 0} [pᵀ w(r) − ½ pᵀ H p] − r_freeᵀ L_free = ½ p*ᵀ w − r_freeᵀ L_free,
+
+whose gradient is the load residual F = C_freeᵀ p* − L_free and whose
+Hessian on the contact set S is C_Sᵀ H_SS⁻¹ C_S (|free| extra solves on S).
+On a fixed S, p is linear in r, so the step is exact once S has settled;
+the Armijo line search on Φ makes the iteration converge from any start,
+where updating S and r together can cycle on rough surfaces.
 
 Failure is never silent: an inner solve that diverges, an active set that
 revisits an earlier set (cycling) or exceeds its iteration limit raises
@@ -25,6 +32,7 @@ from __future__ import annotations
 import hashlib
 import time
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -33,8 +41,6 @@ from ..errors import ConvergenceError, InputError
 from ..errors import require_finite as _finite
 from .problem import NormalProblem
 from .result import NormalResult
-
-DOFS = ("closure", "rotation_x", "rotation_y")
 
 
 @dataclass(frozen=True)
@@ -49,10 +55,24 @@ class ActiveSetSettings:
         so round-off in p never flips a node back and forth.
     max_outer
         Active-set iterations allowed before raising.
+    min_growth
+        Interpenetrating nodes are added all at once unless they outnumber
+        the contact set (and this many); then only the deepest ones, as many
+        as the set holds, so the set at most doubles per iteration.
+    load_tol
+        Load control stops when |P − P_imposed| ≤ load_tol · P and the moment
+        residuals ≤ load_tol · P · (half-size of the footprint). The default
+        equals ``tol``: nodes carrying less than tol · max p may sit on either
+        side of the contact boundary, which moves P by up to that much.
+    max_newton
+        Newton steps on the rigid motion allowed before raising.
     """
 
     tol: float = 1e-8
     max_outer: int = 200
+    min_growth: int = 64
+    load_tol: float = 1e-8
+    max_newton: int = 50
 
 
 def _inner_solver(problem: NormalProblem, method: str, rtol: float | None, options: dict | None,
@@ -152,38 +172,47 @@ class ActiveSetSolver(Collective):
     def _solve(self, rigid: np.ndarray, fixed: tuple[int, ...], loads: np.ndarray,
                control: str) -> NormalResult:
         t0 = time.perf_counter()
-        pb, tol = self.problem, self.settings.tol
+        pb = self.problem
         free = [k for k in range(3) if k not in fixed]
-        n = pb.local_size
         rigid = rigid.astype(float).copy()
-        if free:
-            rigid[free] = self.rigid[free]   # warm start of the unknown motion
+        if not free:
+            state = self._displacement(rigid)
+            return self._finish(state, rigid, control, t0)
+        if loads[0] == 0.0:
+            rigid[free] = 0.0
+            n = pb.local_size
+            empty = _State(np.zeros(n), np.zeros(n, bool), -pb.interpenetration(rigid), 0, 0, 0.0, ())
+            return self._finish(empty, rigid, control, t0)
+        return self._load_newton(rigid, free, loads, control, t0)
 
-        if control == "load" and loads[0] == 0.0:
-            return self._finish(np.zeros(n), np.zeros(n, bool), rigid, 0, 0, 0.0, (), control, t0,
-                                -pb.interpenetration(rigid))
-
-        active = self._initial_active(rigid, free, loads)
+    # -- displacement control: the paper's active set -------------------------------
+    def _displacement(self, rigid: np.ndarray) -> "_State":
+        """Contact state for an imposed r = (δz, θx, θy), warm-started from the last set."""
+        pb, tol = self.problem, self.settings.tol
+        n = pb.local_size
+        w = pb.interpenetration(rigid)
+        if self.active is not None:
+            active = self.active.copy()
+        else:
+            active = w > 0.0                                 # the paper's initial domain
         seen: dict[bytes, int] = {}
         history: list[float] = []
         linear_its = 0
         for outer in range(1, self.settings.max_outer + 1):
             if pb.allsum(active.sum()) == 0:
-                # nothing in contact: a valid state when nothing interpenetrates
-                w = pb.interpenetration(rigid)
-                if free:        # a positive load needs a contact set
-                    active = self._enlarge(active, rigid)
-                elif pb.allmax(float((w > 0.0).any())) > 0:
-                    active = w > 0.0
-                else:
-                    return self._finish(np.zeros(n), active, rigid, outer, linear_its, 0.0,
-                                        tuple(history), control, t0, -w)
+                if pb.allmax(float((w > 0.0).any())) == 0:
+                    # nothing interpenetrates: no contact, a valid state
+                    state = _State(np.zeros(n), active, -w, outer, linear_its, 0.0, tuple(history))
+                    self.active = active.copy()
+                    return state
+                active = w > 0.0
             self.inner.set_active(active)
-            rigid, pressure, its = self._solve_on_set(active, rigid, free, fixed, loads)
-            if pressure is None:       # singular load system: enlarge the set and retry
-                active = self._enlarge(active, rigid)
-                continue
+            pressure_s, its = self.inner.solve(w[active], self.guesses[active, 3])
+            self.guesses[:, 3] = 0.0
+            self.guesses[active, 3] = pressure_s
             linear_its += its
+            pressure = np.zeros(n)
+            pressure[active] = pressure_s
             gap = self._gap(pressure, rigid, active)
             p_max = float(pb.allmax(pressure.max(initial=0.0)))
             w_scale = self._w_scale(rigid)
@@ -193,10 +222,10 @@ class ActiveSetSolver(Collective):
             history.append(residual)
             n_changes = pb.allsum(np.array([tension.sum(), penetration.sum()]))
             if n_changes.sum() == 0:
-                pressure = np.where(active, np.maximum(pressure, 0.0), 0.0)
-                return self._finish(pressure, active, rigid, outer, linear_its, residual,
-                                    tuple(history), control, t0, gap)
-            active = (active & ~tension) | penetration
+                self.active = active.copy()
+                return _State(np.where(active, np.maximum(pressure, 0.0), 0.0), active, gap, outer,
+                              linear_its, residual, tuple(history))
+            active = (active & ~tension) | self._limit_growth(penetration, gap, active, n_changes[1])
             key = self._set_key(active)
             if key in seen:
                 raise ConvergenceError(
@@ -212,58 +241,132 @@ class ActiveSetSolver(Collective):
             f"(last residual {history[-1]:.3e}, {int(n_changes[0])} nodes in tension, "
             f"{int(n_changes[1])} interpenetrating); raise ActiveSetSettings.max_outer")
 
-    def _initial_active(self, rigid, free, loads) -> np.ndarray:
+    def _limit_growth(self, penetration, gap, active, n_penetrating) -> np.ndarray:
+        """The interpenetrating nodes to add: all of them, unless they outnumber
+        the current set, then the most interpenetrating ones, as many as the set
+        holds. A warm-start set far too small for a large load step would
+        otherwise jump to most of the footprint, where every solve costs the
+        most, only to shed it again."""
         pb = self.problem
+        n_active = int(pb.allsum(active.sum()))
+        cap = max(n_active, self.settings.min_growth)
+        if n_penetrating <= cap:
+            return penetration
+        depth = pb.gather(np.where(penetration, gap, np.inf))
+        threshold = np.partition(depth, cap - 1)[cap - 1]
+        return penetration & (gap <= threshold)
+
+    # -- load control: damped Newton on the free rigid motion -------------------------
+    def _load_newton(self, rigid, free, loads, control, t0) -> NormalResult:
+        pb, settings = self.problem, self.settings
+        target = loads[free]
+        # residual scales: P for the load, P times the footprint's half-size for moments
+        extent = float(np.abs(pb._all_xy).max()) or pb.topography.spacing
+        scale = np.array([loads[0], loads[0] * extent, loads[0] * extent])[free]
         if self.active is not None:
-            return self.active.copy()
-        if not free:
-            return pb.interpenetration(rigid) > 0.0      # the paper's initial domain
-        # load control, cold start: the nodes nearest to first touch
-        k = min(pb.size, max(3 * len(free), 4))
-        threshold = np.partition(pb.gather(pb.gap0), k - 1)[k - 1]
-        return pb.gap0 <= threshold
+            rigid[free] = self.rigid[free]                   # warm start of the unknown motion
+        else:
+            rigid[free] = 0.0
+            rigid[0] = self._winkler_approach(rigid, loads[0])
+        # step units: approach h, rotations h / extent; the trust radius is in these units
+        height = max(pb.height_range, abs(rigid[0]), 1e-12 * extent)
+        units = np.array([height, height / extent, height / extent])[free]
+        radius = 1.0
+        outer = linear = 0
+        history: list[float] = []
+        state, phi, force = None, None, None
+        for newton in range(1, settings.max_newton + 1):
+            if state is None:
+                state, phi, force = self._evaluate(rigid, free, target)
+                outer += state.outer
+                linear += state.linear
+            error = float(np.max(np.abs(force) / scale))
+            history.append(error)
+            if error <= settings.load_tol:
+                return self._finish(state._replace(outer=outer, linear=linear, history=tuple(history),
+                                                   residual=max(state.residual, error)),
+                                    rigid, control, t0)
+            hessian, its = self._hessian(state.active, free)
+            linear += its
+            step = _newton_step(hessian, force, units, radius)
+            slope = float(force @ step)
+            alpha = 1.0
+            while True:
+                trial = rigid.copy()
+                trial[free] = rigid[free] + alpha * step
+                t_state, t_phi, t_force = self._evaluate(trial, free, target)
+                outer += t_state.outer
+                linear += t_state.linear
+                # Armijo on Φ; near the solution Φ's decrease is below its round-off, and a
+                # decrease of the load residual itself is accepted instead
+                if (t_phi <= phi + 1e-4 * alpha * slope
+                        or np.max(np.abs(t_force) / scale) <= 0.5 * error or alpha < 1e-6):
+                    break
+                alpha *= 0.5
+            if alpha < 1e-6:
+                raise ConvergenceError(
+                    "LOAD_CONTROL_LINE_SEARCH",
+                    f"Newton step {newton} on the rigid motion found no decrease of the "
+                    f"complementary energy nor of the load residual ({error:.3e}); the contact "
+                    "state is resolved more coarsely than load_tol: loosen it")
+            moved = float(np.max(np.abs(alpha * step) / units))
+            radius = 4.0 * radius if alpha == 1.0 and moved >= 0.99 * radius else max(moved, 1e-3)
+            rigid, state, phi, force = trial, t_state, t_phi, t_force
+        raise ConvergenceError(
+            "LOAD_CONTROL_MAX_ITERATIONS",
+            f"{settings.max_newton} Newton steps on the rigid motion without meeting "
+            f"load_tol={settings.load_tol:g} (last relative load residual {history[-1]:.3e}); "
+            "raise ActiveSetSettings.max_newton")
 
-    def _solve_on_set(self, active, rigid, free, fixed, loads):
-        """p on the set S, and the free components of r; (rigid, None, its) if singular."""
+    def _evaluate(self, rigid, free, target):
+        """Displacement solve at r; Φ(r) and its gradient F = C_freeᵀ p − L_free."""
         pb = self.problem
-        cols = pb.columns[active]
+        state = self._displacement(rigid)
+        w = pb.interpenetration(rigid)
+        sums = pb.allsum(np.append(pb.columns[:, free].T @ state.pressure, 0.5 * state.pressure @ w))
+        force = sums[:-1] - target
+        phi = float(sums[-1] - rigid[free] @ target)
+        return state, phi, force
+
+    def _hessian(self, active, free):
+        """C_Sᵀ H_SS⁻¹ C_S for the free components (|free| solves on the set S)."""
+        pb = self.problem
+        n_free = len(free)
+        if pb.allsum(active.sum()) == 0:
+            return np.zeros((n_free, n_free)), 0
+        self.inner.set_active(active)
+        cols = pb.columns[active][:, free]
+        basis = np.empty_like(cols)
+        its = 0
+        for j, k in enumerate(free):
+            basis[:, j], itk = self.inner.solve(cols[:, j], self.guesses[active, k])
+            its += itk
+            self.guesses[:, k] = 0.0
+            self.guesses[active, k] = basis[:, j]
+        return pb.allsum(cols.T @ basis), its
+
+    def _winkler_approach(self, rigid, load: float) -> float:
+        """Load control, cold start: the approach of independent punches.
+
+        Each node alone is a spring of stiffness 1/H_ii; δ solves
+        Σ (δ − b_i)⁺ / H_ii = P, with b_i the initial gap under the imposed
+        rotation. Interaction between nodes only softens the surface, so this
+        underestimates δz and the Newton iteration continues from a small,
+        cheap contact set.
+        """
+        pb = self.problem
+        diagonal = pb.operator.getDiagonal()
+        stiffness = pb.gather(1.0 / diagonal.getArray())
+        diagonal.destroy()
         imposed = rigid.copy()
-        imposed[free] = 0.0
-        z0, its = self.inner.solve(pb.interpenetration(imposed)[active], self.guesses[active, 3])
-        self.guesses[:, 3] = 0.0
-        self.guesses[active, 3] = z0
-        pressure_s = z0
-        if free:
-            basis = []
-            for k in free:
-                zk, itk = self.inner.solve(cols[:, k], self.guesses[active, k])
-                its += itk
-                self.guesses[:, k] = 0.0
-                self.guesses[active, k] = zk
-                basis.append(zk)
-            basis = np.stack(basis, axis=1)
-            system = pb.allsum(cols[:, free].T @ basis)
-            rhs = loads[free] - pb.allsum(cols[:, free].T @ z0)
-            if np.linalg.cond(system) > 1e12:
-                return rigid, None, its
-            rigid = rigid.copy()
-            rigid[free] = np.linalg.solve(system, rhs)
-            pressure_s = z0 + basis @ rigid[free]
-        pressure = np.zeros(pb.local_size)
-        pressure[active] = pressure_s
-        return rigid, pressure, its
-
-    def _enlarge(self, active, rigid) -> np.ndarray:
-        """Add the nodes closest to contact (largest w) outside S, doubling |S|."""
-        pb = self.problem
-        w = np.where(active, -np.inf, pb.interpenetration(rigid))
-        k = max(3, int(pb.allsum(active.sum())))
-        values = pb.gather(w)
-        k = min(k, int(np.isfinite(values).sum()))
-        if k == 0:
-            raise ConvergenceError("ACTIVE_SET_SINGULAR", "the load system is singular on the whole footprint")
-        threshold = np.partition(values, values.size - k)[values.size - k]
-        return active | (w >= threshold)
+        imposed[0] = 0.0
+        gaps = pb.gather(-pb.interpenetration(imposed))    # gap at zero approach
+        order = np.argsort(gaps, kind="stable")
+        b, k = gaps[order], stiffness[order]
+        approach = (load + np.cumsum(k * b)) / np.cumsum(k)  # δ if the first m+1 nodes touch
+        upper = np.append(b[1:], np.inf)
+        m = int(np.argmax((approach >= b) & (approach <= upper)))
+        return float(approach[m])
 
     def _gap(self, pressure: np.ndarray, rigid: np.ndarray, active: np.ndarray) -> np.ndarray:
         """Deformed gap g = H p − w (Eq. 7: zero on S, positive outside); p is zero off S."""
@@ -290,9 +393,9 @@ class ActiveSetSolver(Collective):
         digest = hashlib.sha1(np.packbits(active).tobytes()).digest()
         return b"".join(self.problem.comm.allgather(digest))
 
-    def _finish(self, pressure, active, rigid, outer, linear_its, residual, history, control, t0,
-                gap) -> NormalResult:
+    def _finish(self, state: "_State", rigid, control, t0) -> NormalResult:
         pb = self.problem
+        pressure, active, gap = state.pressure, state.active, state.gap
         self.active = active.copy()
         self.rigid = rigid.copy()
         forces = pb.gather(pressure)
@@ -314,10 +417,49 @@ class ActiveSetSolver(Collective):
             reference_point=(float(pb.centroid[0]), float(pb.centroid[1])),
             closure=float(rigid[0]), rotation=(float(rigid[1]), float(rigid[2])),
             contact_area=n_contact * s**2, nominal_area=pb.size * s**2,
-            outer_iterations=outer, linear_iterations=int(linear_its), residual=float(residual),
-            elapsed=time.perf_counter() - t0, solver=self.inner.description, control=control,
+            outer_iterations=state.outer, linear_iterations=int(state.linear),
+            residual=float(state.residual), elapsed=time.perf_counter() - t0,
+            solver=self.inner.description, control=control,
             no_contact=n_contact == 0, full_contact=n_contact == pb.size,
-            residual_history=tuple(history))
+            residual_history=tuple(state.history))
+
+
+class _State(NamedTuple):
+    """A converged displacement-controlled contact state on this rank's nodes."""
+
+    pressure: np.ndarray
+    active: np.ndarray
+    gap: np.ndarray
+    outer: int
+    linear: int
+    residual: float
+    history: tuple
+
+
+def _newton_step(hessian: np.ndarray, force: np.ndarray, units: np.ndarray, radius: float) -> np.ndarray:
+    """Newton step on Φ within a trust region, robust to a contact set that cannot fix r yet.
+
+    In coordinates u = dr / units the step solves the Newton system on the
+    range of the Hessian; along directions the contact set does not stiffen
+    yet (no node touches, or too few to fix a rotation), Φ is linear, and the
+    step follows its descent direction. The step is then limited to
+    |u|∞ ≤ radius.
+    """
+    gradient = force * units
+    matrix = hessian * np.outer(units, units)
+    values, vectors = np.linalg.eigh(matrix)
+    stiff = values > 1e-10 * max(values.max(initial=0.0), 0.0) if values.max(initial=0.0) > 0 else \
+        np.zeros(values.size, bool)
+    step = -(vectors[:, stiff] @ ((vectors[:, stiff].T @ gradient) / values[stiff]))
+    soft = vectors[:, ~stiff]
+    if soft.size:
+        descent = -(soft @ (soft.T @ gradient))
+        if np.abs(descent).max() > 0.0:
+            step += radius * descent / np.abs(descent).max()
+    longest = np.abs(step).max()
+    if longest > radius:
+        step *= radius / longest
+    return step * units
 
 
 def _pair(name: str, value) -> tuple:

@@ -98,6 +98,15 @@ class KSPSubsolver:
     def solve(self, rhs: np.ndarray, guess: np.ndarray) -> tuple[np.ndarray, int]:
         self.b.getArray()[:] = rhs
         self.x.getArray()[:] = guess
+        # a warm start worse than zero (a much smaller load, a receding set) is dropped: CG
+        # would otherwise start from a residual far above |b| and may stop on PETSc's
+        # divergence test before its first iteration
+        residual = self.b.duplicate()
+        self.sub.mult(self.x, residual)
+        residual.aypx(-1.0, self.b)
+        if residual.norm() > self.b.norm():
+            self.x.set(0.0)
+        residual.destroy()
         self.ksp.solve(self.b, self.x)
         reason = self.ksp.getConvergedReason()
         its = self.ksp.getIterationNumber()

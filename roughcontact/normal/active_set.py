@@ -121,6 +121,7 @@ class ActiveSetSolver(Collective):
         self.active: np.ndarray | None = None
         self.guesses = np.zeros((n, 4))
         self.rigid = np.zeros(3)
+        self._inner_set: np.ndarray | None = None
 
     def destroy(self) -> None:
         self.inner.destroy()
@@ -206,7 +207,7 @@ class ActiveSetSolver(Collective):
                     self.active = active.copy()
                     return state
                 active = w > 0.0
-            self.inner.set_active(active)
+            self._restrict(active)
             pressure_s, its = self.inner.solve(w[active], self.guesses[active, 3])
             self.guesses[:, 3] = 0.0
             self.guesses[active, 3] = pressure_s
@@ -240,6 +241,15 @@ class ActiveSetSolver(Collective):
             f"{self.settings.max_outer} active-set iterations without meeting tol={tol:g} "
             f"(last residual {history[-1]:.3e}, {int(n_changes[0])} nodes in tension, "
             f"{int(n_changes[1])} interpenetrating); raise ActiveSetSettings.max_outer")
+
+    def _restrict(self, active: np.ndarray) -> None:
+        """Point the inner solver at the set S, unless it already is (decided on all ranks,
+        since building H_SS is collective): Newton's evaluations and Hessians often
+        revisit the set of the previous solve."""
+        same = self._inner_set is not None and np.array_equal(self._inner_set, active)
+        if self.problem.allmax(0.0 if same else 1.0) > 0.0:
+            self.inner.set_active(active)
+            self._inner_set = active.copy()
 
     def _limit_growth(self, penetration, gap, active, n_penetrating) -> np.ndarray:
         """The interpenetrating nodes to add: all of them, unless they outnumber
@@ -334,7 +344,7 @@ class ActiveSetSolver(Collective):
         n_free = len(free)
         if pb.allsum(active.sum()) == 0:
             return np.zeros((n_free, n_free)), 0
-        self.inner.set_active(active)
+        self._restrict(active)
         cols = pb.columns[active][:, free]
         basis = np.empty_like(cols)
         its = 0

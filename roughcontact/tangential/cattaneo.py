@@ -143,7 +143,6 @@ class CattaneoSolver(Collective):
         # warm start of the first corrective solve: the actual contact set and motion (Eq. 23
         # receding: the stick set is a subset of it)
         self.solver.warm_start(normal)
-        self._q, self._u = problem.operator.createVecs()
 
     @property
     def limit_load(self) -> float:
@@ -153,8 +152,6 @@ class CattaneoSolver(Collective):
     def destroy(self) -> None:
         """Free the corrective solver (collective)."""
         self.solver.destroy()
-        self._q.destroy()
-        self._u.destroy()
 
     # ------------------------------------------------------------------ API
     def solve(self, tangential: float) -> TangentialState:
@@ -238,11 +235,14 @@ class CattaneoSolver(Collective):
 
     def _displacement(self, traction: np.ndarray) -> np.ndarray:
         """u_x = H q̄ (Eq. 17) on the footprint, NaN outside it."""
+        from ..elastic.petsc import apply_on_columns
+
         pb = self.problem
         footprint = pb.topography.footprint
-        self._q.getArray()[:] = traction[footprint][pb.start:pb.stop]
-        pb.operator.mult(self._q, self._u)
-        return pb.to_field(pb.gather(self._u.getArray().copy()), np.nan)
+        local = slice(pb.start, pb.stop)
+        values = traction[footprint][local]
+        loaded = self.normal.contact[footprint][local]      # q is zero off the contact set
+        return pb.to_field(pb.gather(apply_on_columns(pb.operator, values, loaded, pb.start)), np.nan)
 
 
 def _centroid(traction: np.ndarray, zone: np.ndarray, spacing: float) -> tuple[float, float]:

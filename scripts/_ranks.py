@@ -1,6 +1,7 @@
 """Shared by the benchmark scripts: run a worker under mpiexec for each rank count."""
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import subprocess
@@ -40,3 +41,13 @@ def write_rows(comm, rows: list[dict], path: str) -> None:
     """Rank 0 writes the worker's rows for :func:`run_on_ranks` to collect."""
     if comm.Get_rank() == 0:
         Path(path).write_text(json.dumps(rows, indent=1))
+
+
+def add_launch_arguments(parser: argparse.ArgumentParser, repeats: int, output: str) -> None:
+    """The options every benchmark takes: rank counts, repeats, output, and the hidden
+    worker switches used by :func:`run_on_ranks`."""
+    parser.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--repeats", type=int, default=repeats)
+    parser.add_argument("--output", default=output)
+    parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--json", help=argparse.SUPPRESS)

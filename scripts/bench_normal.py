@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from _ranks import emit, run_on_ranks, write_rows
+from _ranks import add_launch_arguments, emit, run_on_ranks, write_rows
 
 
 def worker(args) -> None:
@@ -92,13 +92,9 @@ def worker(args) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[32, 64, 128])
-    parser.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
-    parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--gs-max-unknowns", type=int, default=128 * 128,
                         help="run the Gauss-Seidel reference up to this many unknowns")
-    parser.add_argument("--output", default="results/bench_normal.json")
-    parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
-    parser.add_argument("--json", help=argparse.SUPPRESS)
+    add_launch_arguments(parser, repeats=3, output="results/bench_normal.json")
     args = parser.parse_args()
     if args.worker:
         worker(args)

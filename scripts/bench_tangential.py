@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from _ranks import emit, run_on_ranks, write_rows
+from _ranks import add_launch_arguments, emit, run_on_ranks, write_rows
 
 
 def worker(args) -> None:
@@ -102,11 +102,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[33, 65])
     parser.add_argument("--steps", type=int, nargs="+", default=[10, 20, 40])
-    parser.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
-    parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--output", default="results/bench_tangential.json")
-    parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
-    parser.add_argument("--json", help=argparse.SUPPRESS)
+    add_launch_arguments(parser, repeats=5, output="results/bench_tangential.json")
     args = parser.parse_args()
     if args.worker:
         worker(args)

@@ -139,3 +139,12 @@ def test_command_line_reports_bad_study(tmp_path, comm):
                           "--output", str(tmp_path)], capture_output=True, text=True, timeout=120)
     assert run.returncode == 2, run.stderr
     assert "fractal_dimension" in run.stderr and "Traceback" not in run.stderr
+
+
+def test_petsc_options_are_split_from_program_arguments():
+    from roughcontact.cli import split_petsc_args
+
+    own, petsc = split_petsc_args(["run", "s.toml", "-normal_ksp_type", "gmres", "--output", "out",
+                                   "-log_view", "--", "-normal_ksp_rtol", "1e-9"])
+    assert own == ["run", "s.toml", "--output", "out"]
+    assert petsc == ["-normal_ksp_type", "gmres", "-log_view", "-normal_ksp_rtol", "1e-9"]

@@ -27,7 +27,12 @@ if command -v mpicc >/dev/null 2>&1 && [ "$(command -v mpicc)" != "$venv/bin/mpi
 fi
 
 if [ ! -x "$venv/bin/python" ]; then
-    if "$base_python" -c "import petsc4py, mpi4py" >/dev/null 2>&1; then
+    # a stack importable from the base interpreter, and visible to a venv made from it
+    # (not one installed inside another virtual environment)
+    if "$base_python" -c "
+import sys, petsc4py, mpi4py
+inside_venv = sys.prefix != sys.base_prefix and petsc4py.__file__.startswith(sys.prefix)
+sys.exit(1 if inside_venv else 0)" >/dev/null 2>&1; then
         log "using petsc4py and mpi4py importable from $base_python"
         "$base_python" -m venv --system-site-packages "$venv"
     else

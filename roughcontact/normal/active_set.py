@@ -19,12 +19,16 @@ convex function
 
 whose gradient is the load residual F = C_freeᵀ p* − L_free and whose
 Hessian on the contact set S is C_Sᵀ H_SS⁻¹ C_S (|free| extra solves on S).
-On a fixed S, p is linear in r, so the step is exact once S has settled;
-the Armijo line search on Φ makes the iteration converge from any start,
-where updating S and r together can cycle on rough surfaces.
+On a fixed S, p is linear in r, so the step is exact once S has settled.
+Far from it, a trust region bounds the step (and steers it along directions
+the contact set does not stiffen yet), and an Armijo line search on Φ, or a
+halving of the load residual near the solution where Φ's decrease drowns in
+round-off, accepts it. Updating S and r together instead, as a single active
+set, cycles on rough surfaces with free rotations (see the tests).
 
 Failure is never silent: an inner solve that diverges, an active set that
-revisits an earlier set (cycling) or exceeds its iteration limit raises
+revisits an earlier set (cycling) or exceeds its iteration limit, a line
+search that finds no decrease, or too many Newton steps raise
 :class:`~roughcontact.errors.ConvergenceError` saying which.
 """
 from __future__ import annotations

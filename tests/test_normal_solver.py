@@ -258,3 +258,14 @@ def test_load_control_converges_on_rough_surfaces(comm, seed):
         assert res.residual <= 1e-8 and np.all(res.force >= 0.0)
         assert np.all(res.gap[topo.footprint & ~res.contact] >= -1e-8 * np.ptp(topo.heights))
     problem.destroy()
+
+
+def test_load_control_iteration_limit_raises(comm):
+    """One Newton step cannot reach equilibrium from a cold start: it says so."""
+    topo = rough()
+    problem = NormalProblem(topo, ROCK, comm)
+    with ActiveSetSolver(problem, settings=ActiveSetSettings(max_newton=1)) as solver:
+        with pytest.raises(ConvergenceError) as info:
+            solver.solve_load(50.0)
+    problem.destroy()
+    assert info.value.reason == "LOAD_CONTROL_MAX_ITERATIONS"

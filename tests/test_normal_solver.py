@@ -269,3 +269,18 @@ def test_load_control_iteration_limit_raises(comm):
             solver.solve_load(50.0)
     problem.destroy()
     assert info.value.reason == "LOAD_CONTROL_MAX_ITERATIONS"
+
+
+def test_zero_load_with_fixed_rotation_is_at_first_touch(comm):
+    """P = 0 with an imposed tilt: nothing may interpenetrate and one node just touches
+    (the largest approach with all gaps >= 0), whatever the tilt does to the heights."""
+    topo = rough()
+    problem = NormalProblem(topo, ROCK, comm)
+    tilt = 5.0 * np.ptp(topo.heights) / (topo.shape[0] * topo.spacing)   # tilt dominates roughness
+    with ActiveSetSolver(problem) as solver:
+        res = solver.solve_load(0.0, rotation=(0.0, tilt))
+    problem.destroy()
+    gaps = res.gap[topo.footprint]
+    assert res.no_contact and res.load == 0.0
+    assert gaps.min() == pytest.approx(0.0, abs=1e-15 * np.ptp(topo.heights))
+    assert np.all(gaps >= -1e-15 * np.ptp(topo.heights))      # round-off of δz − θ y − gap0

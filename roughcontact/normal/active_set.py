@@ -118,7 +118,6 @@ class ActiveSetSolver(Collective):
                  options: dict | None = None, prefix: str = "normal_"):
         self.problem = problem
         self.settings = settings
-        self.method = method
         self.inner = _inner_solver(problem, method, rtol, options, prefix)
         n = problem.local_size
         # warm-start state: last contact set, last solution columns (full local length)
@@ -184,7 +183,10 @@ class ActiveSetSolver(Collective):
             state = self._displacement(rigid)
             return self._finish(state, rigid, control, t0)
         if loads[0] == 0.0:
+            # no load: the bodies at first touch (free rotations zero, fixed ones kept),
+            # the largest approach with nothing interpenetrating
             rigid[free] = 0.0
+            rigid[0] = -float(pb.allmax(pb.interpenetration(rigid).max(initial=-np.inf)))
             n = pb.local_size
             empty = _State(np.zeros(n), np.zeros(n, bool), -pb.interpenetration(rigid), 0, 0, 0.0, ())
             return self._finish(empty, rigid, control, t0)
@@ -275,7 +277,7 @@ class ActiveSetSolver(Collective):
         pb, settings = self.problem, self.settings
         target = loads[free]
         # residual scales: P for the load, P times the footprint's half-size for moments
-        extent = float(np.abs(pb._all_xy).max()) or pb.topography.spacing
+        extent = pb.extent
         scale = np.array([loads[0], loads[0] * extent, loads[0] * extent])[free]
         if self.active is not None:
             rigid[free] = self.rigid[free]                   # warm start of the unknown motion
@@ -286,14 +288,10 @@ class ActiveSetSolver(Collective):
         height = max(pb.height_range, abs(rigid[0]), 1e-12 * extent)
         units = np.array([height, height / extent, height / extent])[free]
         radius = 1.0
-        outer = linear = 0
         history: list[float] = []
-        state, phi, force = None, None, None
+        state, phi, force = self._evaluate(rigid, free, target)
+        outer, linear = state.outer, state.linear
         for newton in range(1, settings.max_newton + 1):
-            if state is None:
-                state, phi, force = self._evaluate(rigid, free, target)
-                outer += state.outer
-                linear += state.linear
             error = float(np.max(np.abs(force) / scale))
             history.append(error)
             if error <= settings.load_tol:

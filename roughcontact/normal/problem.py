@@ -69,6 +69,11 @@ class NormalProblem:
         self._all_xy = xy - self.centroid
 
     @property
+    def extent(self) -> float:
+        """Largest |x| or |y| of a footprint node from the centroid (m); s for a single node."""
+        return float(np.abs(self._all_xy).max()) or self.topography.spacing
+
+    @property
     def local_size(self) -> int:
         return self.stop - self.start
 

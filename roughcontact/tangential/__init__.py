@@ -10,11 +10,11 @@ from .cattaneo import CattaneoSolver, first_touch_gap, incipient_sliding_energy
 from .dataset import fretting_dataset, tangential_dataset
 from .energy import frictional_energy, loop_area, stored_energy, work
 from .fretting import FrettingCycle, fretting_cycle, reversal_traction
-from .model import UncoupledApproximationWarning, cattaneo_model
+from .model import CattaneoConsistencyWarning, UncoupledApproximationWarning, cattaneo_model
 from .result import TangentialState
 from .sweep import TangentialSweep, tangential_loads, tangential_sweep
 
-__all__ = ["CattaneoSolver", "FrettingCycle", "TangentialState", "TangentialSweep",
+__all__ = ["CattaneoConsistencyWarning", "CattaneoSolver", "FrettingCycle", "TangentialState", "TangentialSweep",
            "UncoupledApproximationWarning", "cattaneo_model", "first_touch_gap", "fretting_cycle",
            "fretting_dataset", "frictional_energy", "incipient_sliding_energy", "loop_area",
            "reversal_traction", "stored_energy", "tangential_dataset", "tangential_loads",

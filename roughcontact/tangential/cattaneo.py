@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 
 import numpy as np
 
@@ -38,7 +39,7 @@ from ..normal.active_set import ActiveSetSettings, ActiveSetSolver
 from ..normal.problem import NormalProblem
 from ..normal.result import NormalResult
 from .energy import frictional_energy, stored_energy
-from .model import cattaneo_model
+from .model import COULOMB_TOLERANCE, CattaneoConsistencyWarning, cattaneo_model
 from .result import TangentialState
 
 
@@ -48,6 +49,13 @@ def check_friction(friction) -> float:
     if f <= 0.0:
         raise InputError("friction", f"the Coulomb coefficient f must be finite and > 0, got {friction!r}")
     return f
+
+
+def check_steps(steps) -> int:
+    """N as an int, or :class:`InputError` unless an integer >= 1."""
+    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
+        raise InputError("steps", f"must be an integer >= 1, got {steps!r}")
+    return int(steps)
 
 
 def check_direction(direction) -> tuple[float, float]:
@@ -218,6 +226,10 @@ class CattaneoSolver(Collective):
         p_max = float(normal.force.max())
         excess = np.maximum(traction - f * normal.force, -traction)[contact | stick]
         violation = max(0.0, float(excess.max(initial=0.0)) / (f * p_max)) if p_max > 0 else 0.0
+        if violation > COULOMB_TOLERANCE:
+            warnings.warn(f"Q = {q_load:.6g} N: the shear breaks 0 <= q <= f p by {violation:.2e} of "
+                          "f max p (coulomb_violation); the discrete corrective pressure exceeds the "
+                          "actual one at some node", CattaneoConsistencyWarning, stacklevel=3)
         return TangentialState(
             tangential=float(q_load), friction=f, direction=self.direction, normal=normal,
             corrective=corrective, traction=traction, stick=stick, slip=slip,

@@ -5,7 +5,8 @@ write them with :func:`roughcontact.datasets.write_netcdf`. A sweep's
 dimension is ``Q`` (the tangential load, N) with the coordinate
 ``Q_over_fP`` on it, so ``ds.swap_dims(Q="Q_over_fP")`` plots against Q/fP.
 Global attributes say whether the model is exact (``cattaneo_model``),
-record the normal state, E_tot (Eq. 27) and what the sweep cost.
+record the normal state, E_tot (Eq. 27) and the wall times of the normal solve and
+of the sweep.
 """
 from __future__ import annotations
 

@@ -33,7 +33,7 @@ import numpy as np
 from ..errors import InputError
 from ..normal.problem import NormalProblem
 from ..normal.result import NormalResult
-from .cattaneo import check_friction, check_normal, check_tangential
+from .cattaneo import check_friction, check_normal, check_steps, check_tangential
 from .energy import frictional_energy, loop_area
 from .sweep import TangentialSweep, tangential_sweep
 
@@ -147,8 +147,7 @@ def fretting_cycle(problem: NormalProblem, normal: NormalResult, friction: float
     amplitude = check_tangential(amplitude, friction, normal.load, name="amplitude")
     if amplitude == 0.0:
         raise InputError("amplitude", "must be > 0: a cycle between ±0 has no loop")
-    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
-        raise InputError("steps", f"must be an integer >= 1, got {steps!r}")
+    steps = check_steps(steps)
     loads = amplitude * np.arange(steps + 1) / steps
     loading = tangential_sweep(problem, normal, friction, tangential=loads, direction=direction,
                                include_limit=False, **solver_options)

@@ -25,6 +25,18 @@ class UncoupledApproximationWarning(UserWarning):
     """The Cattaneo analogy is applied to materials with β ≠ 0 or γ ≠ 0."""
 
 
+class CattaneoConsistencyWarning(UserWarning):
+    """A discrete state breaks an assumption of the Cattaneo construction: Coulomb's
+    inequalities 0 ≤ q ≤ f p (Eq. 14a) beyond the solver tolerance, or stick sets
+    that do not recede along a sweep (Eq. 26 then undercounts the slip of re-stuck
+    nodes). The results are still returned, labelled by their diagnostics."""
+
+
+#: Coulomb breach, relative to f max p, beyond which a state is flagged: two orders
+#: above the active-set tolerance (1e-8) that bounds the breach of a consistent state.
+COULOMB_TOLERANCE = 1e-6
+
+
 def cattaneo_model(interface: Interface, warn: bool = True) -> str:
     """``"exact"`` when β = 0 and γ = 0, else ``"uncoupled approximation"``.
 

@@ -96,10 +96,12 @@ class Study:
         diameter = spec.pop("footprint_diameter", None)
         if generator == "file" and self.base_dir is not None and "path" in spec:
             spec["path"] = str(self.base_dir / spec["path"])
+        function = _generators()[generator]
         try:
-            topography = _generators()[generator](**spec)
+            inspect.signature(function).bind(**spec)
         except TypeError as exc:   # a missing required key
             raise InputError(f"surface ({generator})", str(exc)) from None
+        topography = function(**spec)
         if mode is not None:
             topography = detrend(topography, mode)
         if diameter is not None:

@@ -78,7 +78,7 @@ class KSPSubsolver:
         self.ksp.setFromOptions()
         self.sub = None
         self.index_set = None
-        self.x = self.b = None
+        self.x = self.b = self.r = None
 
     @property
     def description(self) -> str:
@@ -94,6 +94,7 @@ class KSPSubsolver:
         self.sub = self.operator.createSubMatrix(self.index_set, self.index_set)
         self.ksp.setOperators(self.sub)
         self.x, self.b = self.sub.createVecs()
+        self.r = self.b.duplicate()
 
     def solve(self, rhs: np.ndarray, guess: np.ndarray) -> tuple[np.ndarray, int]:
         self.b.getArray()[:] = rhs
@@ -101,12 +102,10 @@ class KSPSubsolver:
         # a warm start worse than zero (a much smaller load, a receding set) is dropped: CG
         # would otherwise start from a residual far above |b| and may stop on PETSc's
         # divergence test before its first iteration
-        residual = self.b.duplicate()
-        self.sub.mult(self.x, residual)
-        residual.aypx(-1.0, self.b)
-        if residual.norm() > self.b.norm():
+        self.sub.mult(self.x, self.r)
+        self.r.aypx(-1.0, self.b)
+        if self.r.norm() > self.b.norm():
             self.x.set(0.0)
-        residual.destroy()
         self.ksp.solve(self.b, self.x)
         reason = self.ksp.getConvergedReason()
         its = self.ksp.getIterationNumber()
@@ -122,10 +121,10 @@ class KSPSubsolver:
     def _free_sub(self) -> None:
         # the contact set changes size: the KSP must drop its old work vectors
         self.ksp.reset()
-        for obj in (self.sub, self.index_set, self.x, self.b):
+        for obj in (self.sub, self.index_set, self.x, self.b, self.r):
             if obj is not None:
                 obj.destroy()
-        self.sub = self.index_set = self.x = self.b = None
+        self.sub = self.index_set = self.x = self.b = self.r = None
 
     def destroy(self) -> None:
         self._free_sub()

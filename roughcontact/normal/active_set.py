@@ -382,7 +382,7 @@ class ActiveSetSolver(Collective):
 
     def _gap(self, pressure: np.ndarray, rigid: np.ndarray, active: np.ndarray) -> np.ndarray:
         """Deformed gap g = H p − w (Eq. 7: zero on S, positive outside); p is zero off S."""
-        from ..elastic.petsc import apply_on_columns
+        from ..operators.dense import apply_on_columns
 
         pb = self.problem
         return apply_on_columns(pb.operator, pressure, active, pb.start) - pb.interpenetration(rigid)

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import solve_triangular
 
-from ..elastic.petsc import gather_dense
+from ..operators.dense import gather_dense
 from ..errors import ConvergenceError
 
 

@@ -41,7 +41,7 @@ class NormalProblem:
     """
 
     def __init__(self, topography: Topography, interface: Interface, comm, operator=None):
-        from ..elastic.petsc import assemble_flexibility, ownership
+        from ..operators.dense import assemble_flexibility, ownership
 
         self.topography = topography
         self.interface = interface

@@ -247,7 +247,7 @@ class CattaneoSolver(Collective):
 
     def _displacement(self, traction: np.ndarray) -> np.ndarray:
         """u_x = H q̄ (Eq. 17) on the footprint, NaN outside it."""
-        from ..elastic.petsc import apply_on_columns
+        from ..operators.dense import apply_on_columns
 
         pb = self.problem
         footprint = pb.topography.footprint

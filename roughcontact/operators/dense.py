@@ -13,7 +13,7 @@ from petsc4py import PETSc
 
 from ..materials import Interface
 from ..surfaces.topography import Topography
-from .influence import influence_rows, punch_kernel
+from .kernel import influence_rows, punch_kernel
 
 
 def ownership(n: int, comm) -> tuple[int, int]:

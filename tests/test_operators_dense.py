@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from roughcontact.elastic.influence import influence_rows, punch_kernel
+from roughcontact.operators.kernel import influence_rows, punch_kernel
 from roughcontact.materials import Interface, Material
 from roughcontact.surfaces import disc
 

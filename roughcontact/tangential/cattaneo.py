@@ -72,14 +72,28 @@ def check_direction(direction) -> tuple[float, float]:
     return ex / norm, ey / norm
 
 
+#: Q within this fraction of fP is the full-sliding limit. A load-controlled normal solve meets
+#: its load only to ``ActiveSetSettings.load_tol`` (the solved P differs from the imposed one by
+#: ~1e-13 relative in practice), so Q = fP reached as ``np.linspace(0, f * P, n)[-1]`` may sit a
+#: hair below f times the solved P; the corrective load P* = P − Q/f is then below the
+#: resolution of P itself and cannot be solved for (Eq. 23).
+FULL_SLIDING_RTOL = ActiveSetSettings.load_tol
+
+
 def check_tangential(tangential, friction: float, load: float, name: str = "tangential") -> float:
-    """Q as a float in [0, fP), or :class:`InputError` saying why not."""
+    """Q as a float in [0, fP), or :class:`InputError` saying why not.
+
+    Q ≥ fP (1 − :data:`FULL_SLIDING_RTOL`) counts as full sliding: P* would be
+    within the normal solve's load tolerance of zero.
+    """
     q = require_finite(name, tangential)
     if q < 0.0:
         raise InputError(name, f"must be >= 0, got {q!r}; reverse `direction` for a load the other way")
-    if q >= friction * load:
+    limit = friction * load
+    if q >= limit * (1.0 - FULL_SLIDING_RTOL):
+        within = "" if q >= limit else f" to within the normal solve's load tolerance ({FULL_SLIDING_RTOL:g})"
         raise InputError(
-            name, f"Q = {q:.6g} N >= fP = {friction * load:.6g} N: full sliding. The traction is then f p "
+            name, f"Q = {q:.6g} N >= fP = {limit:.6g} N{within}: full sliding. The traction is then f p "
                   "everywhere but the tangential displacements are undetermined (§5.2); use "
                   "CattaneoSolver.incipient_sliding() for the limit Q -> fP (Eq. 27)")
     return q

@@ -1,0 +1,122 @@
+"""Run a measure on every sample of an ensemble, then average over seeds with a confidence interval.
+
+A sample is one field (or one curve) of a dataset: everything but its core
+dimensions ((x, y) for a field, the load for a closure curve) indexes the
+samples, e.g. (``seed``, ``fractal_dimension``, ``normal_load``).
+:func:`map_samples` applies a measure to each sample and puts the results
+back on those dimensions; :func:`ensemble_statistics` then reduces one of
+them (``seed``) to the mean and its Student-t confidence interval.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+import xarray as xr
+from scipy import stats
+
+from ..errors import InputError
+from .fitting import CONFIDENCE, check_confidence
+
+#: suffixes of the per-sample uncertainty variables the ensemble interval replaces
+_PER_SAMPLE_UNCERTAINTY = ("_stderr", "_lower", "_upper")
+_ON_ERROR = ("raise", "mark")
+
+
+def map_samples(function: Callable[..., xr.Dataset], arrays: Sequence[xr.DataArray], core_dims: Sequence[str],
+                on_error: str = "raise", **kwargs) -> xr.Dataset:
+    """``function(*values, **kwargs)`` on every sample; results stacked on the sample dimensions.
+
+    Parameters
+    ----------
+    function
+        Takes one numpy array per entry of ``arrays`` (their core dimensions,
+        in order) and returns a dataset without the sample dimensions.
+    arrays
+        Broadcast against each other first.
+    core_dims
+        The dimensions ``function`` consumes.
+    on_error
+        ``"raise"``: an :class:`InputError` of one sample propagates.
+        ``"mark"``: that sample's variables are NaN and the variable
+        ``undefined`` (1 there) says so, with the reasons in its attributes.
+    """
+    if on_error not in _ON_ERROR:
+        raise InputError("on_error", f"must be one of {_ON_ERROR}, got {on_error!r}")
+    arrays = [a.transpose(..., *core_dims) for a in xr.broadcast(*arrays)]
+    extra = [d for d in arrays[0].dims if d not in core_dims]
+    if not extra:
+        return function(*[a.values for a in arrays], **kwargs)
+    stacked = [a.stack(sample=extra).transpose("sample", *core_dims) for a in arrays]
+    parts: list[xr.Dataset | None] = []
+    reasons: dict[str, str] = {}
+    for i in range(stacked[0].sizes["sample"]):
+        try:
+            parts.append(function(*[s.values[i] for s in stacked], **kwargs))
+        except InputError as exc:
+            if on_error == "raise":
+                raise
+            parts.append(None)
+            reasons[str(stacked[0]["sample"].values[i])] = str(exc)
+    template = next((p for p in parts if p is not None), None)
+    if template is None:
+        raise InputError("samples", f"the measure is undefined on every sample: {next(iter(reasons.values()))}")
+    blank = template.map(lambda v: xr.full_like(v, np.nan, dtype=float))
+    out = xr.concat([blank if p is None else p for p in parts], dim="sample", coords="minimal",
+                    compat="override", combine_attrs="override")
+    if on_error == "mark":
+        out["undefined"] = ("sample", np.array([p is None for p in parts], dtype=np.int8),
+                            {"units": "1", "long_name": "1 where the measure is undefined on this sample "
+                                                        "(its variables are NaN)",
+                             "reasons": "; ".join(f"{k}: {v}" for k, v in reasons.items()) or "none"})
+    index = xr.Coordinates.from_pandas_multiindex(stacked[0].indexes["sample"], "sample")
+    out = out.assign_coords(index).unstack("sample")
+    carried = {k: c for k, c in arrays[0].coords.items() if k not in out.coords and set(c.dims) <= set(extra)}
+    return out.assign_coords(carried).transpose(*extra, ...)
+
+
+def ensemble_statistics(ds: xr.Dataset, dim: str = "seed", confidence: float = CONFIDENCE) -> xr.Dataset:
+    """Mean over ``dim`` and its confidence interval, for every variable that varies along it.
+
+    For each such variable v: ``v`` (the mean over the defined samples),
+    ``v_lower`` and ``v_upper`` (mean ∓ t(n − 1) s / √n, Student t with the
+    sample standard deviation s of the n defined samples) and ``v_samples``
+    (n). Per-sample fit uncertainties (``_stderr``, ``_lower``, ``_upper``)
+    are dropped: the spread over the ensemble replaces them. Where fewer than
+    two samples are defined the interval is NaN, as its ``comment`` says.
+    """
+    confidence = check_confidence(confidence)
+    if dim not in ds.dims:
+        raise InputError("dim", f"{dim!r} is not a dimension of the dataset (dims {tuple(ds.dims)})")
+    if ds.sizes[dim] < 2:
+        raise InputError(dim, f"has {ds.sizes[dim]} sample(s); a confidence interval needs at least 2")
+    out = {}
+    percent = f"{100 * confidence:g} %"
+    for name, var in ds.data_vars.items():
+        if dim not in var.dims:
+            out[name] = var
+            continue
+        if name.endswith(_PER_SAMPLE_UNCERTAINTY) or not np.issubdtype(var.dtype, np.number):
+            continue
+        values = var.astype(float)
+        count = values.count(dim)
+        mean = values.mean(dim, skipna=True)
+        spread = values.std(dim, ddof=1, skipna=True) if (count >= 2).any() else xr.full_like(mean, np.nan)
+        t = xr.apply_ufunc(lambda n: stats.t.ppf(0.5 + confidence / 2.0, np.where(n >= 2, n - 1, np.nan)), count)
+        half = t * spread / np.sqrt(count.where(count >= 2))
+        label = var.attrs.get("long_name", name)
+        units = var.attrs.get("units", "1")
+        out[name] = mean.assign_attrs(var.attrs, cell_methods=f"{dim}: mean")
+        comment = "NaN where fewer than 2 samples are defined"
+        out[f"{name}_lower"] = (mean - half).assign_attrs(
+            units=units, long_name=f"{percent} confidence interval of the mean of {label} over {dim}, lower bound",
+            comment=comment)
+        out[f"{name}_upper"] = (mean + half).assign_attrs(
+            units=units, long_name=f"{percent} confidence interval of the mean of {label} over {dim}, upper bound",
+            comment=comment)
+        out[f"{name}_samples"] = count.assign_attrs(units="1", long_name=f"samples of {label} defined over {dim}")
+    result = xr.Dataset(out).drop_vars(dim, errors="ignore")
+    result.attrs.update(ds.attrs)
+    result.attrs["ensemble_dimension"] = dim
+    result.attrs["ensemble_confidence"] = confidence
+    return result

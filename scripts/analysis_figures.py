@@ -25,7 +25,7 @@ from roughcontact.analysis.figures import power_law_figure
 from roughcontact.analysis.petsc import solve_resolutions
 from roughcontact.datasets import normal_sweep_dataset, write_netcdf
 from roughcontact.materials import Interface, Material
-from roughcontact.normal import ActiveSetSolver, NormalProblem
+from roughcontact.normal import NormalProblem, solve_loads
 from roughcontact.surfaces import midpoint_surface
 
 LOADS = np.linspace(25.0, 500.0, 12)
@@ -37,8 +37,7 @@ def main(output: Path, comm) -> None:
     topography = midpoint_surface(6, 2.3, spacing=1e-4, rms_height=1e-5, seed=1)
     problem = NormalProblem(topography, interface, comm)
     try:
-        with ActiveSetSolver(problem) as solver:
-            results = [solver.solve_load(p) for p in LOADS]
+        results = solve_loads(problem, LOADS)
     finally:
         problem.destroy()
     sweep = normal_sweep_dataset(results, topography.spacing, attrs={"study": "default-surface",

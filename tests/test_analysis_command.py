@@ -19,7 +19,7 @@ from roughcontact.analysis import box_counting, command, hyperbola
 from roughcontact.analysis.petsc import footprint_bulk_compliance
 from roughcontact.datasets import normal_sweep_dataset, write_netcdf
 from roughcontact.materials import Interface, Material
-from roughcontact.normal import ActiveSetSolver, NormalProblem
+from roughcontact.normal import NormalProblem, solve_loads
 from roughcontact.surfaces import disc, midpoint_surface
 
 INTERFACE = Interface(Material(20e9, 0.2), Material(20e9, 0.2))
@@ -46,8 +46,7 @@ def solve_sweep(comm, path: Path, levels: int, footprint=None) -> Path:
         topography = topography.with_footprint(footprint)
     problem = NormalProblem(topography, INTERFACE, comm)
     try:
-        with ActiveSetSolver(problem) as solver:
-            results = [solver.solve_load(p) for p in LOADS]
+        results = solve_loads(problem, LOADS)
     finally:
         problem.destroy()
     ds = normal_sweep_dataset(results, topography.spacing, attrs={"study": path.stem, **INTERFACE.attrs()})

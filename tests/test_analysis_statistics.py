@@ -135,14 +135,13 @@ def test_standard_names_and_result_inputs(comm):
     NormalResult's spacing comes back from A_0 = (footprint nodes) s²."""
     from roughcontact.datasets import normal_sweep_dataset
     from roughcontact.materials import Interface, Material
-    from roughcontact.normal import ActiveSetSolver, NormalProblem
+    from roughcontact.normal import NormalProblem, solve_loads
     from roughcontact.surfaces import midpoint_surface
 
     topography = midpoint_surface(4, 2.3, spacing=2e-4, rms_height=1e-5, seed=3)
     problem = NormalProblem(topography, Interface(Material(20e9, 0.2)), comm)
     try:
-        with ActiveSetSolver(problem) as solver:
-            results = [solver.solve_load(p) for p in (5.0, 20.0, 80.0)]
+        results = solve_loads(problem, (5.0, 20.0, 80.0))
     finally:
         problem.destroy()
     one = as_dataset(results[1])

@@ -77,13 +77,15 @@ def analyse_file(result: str | Path, comm, output: str | Path | None = None,
     return paths
 
 
-def run(args: argparse.Namespace) -> int:
-    """Run ``analyse`` on COMM_WORLD; 0 on success, 2 on bad input (message on rank 0)."""
-    from mpi4py import MPI
-
+def run(args: argparse.Namespace, comm=None) -> int:
+    """Run ``analyse`` on ``comm`` (the command line's: COMM_WORLD when None); 0 on success, 2 on bad
+    input (message on rank 0)."""
     from ..errors import RoughContactError
 
-    comm = MPI.COMM_WORLD
+    if comm is None:
+        from mpi4py import MPI
+
+        comm = MPI.COMM_WORLD
     try:
         analyse_file(args.result, comm, output=args.output, footprint_diameter=args.footprint_diameter,
                      load_dim=args.load_dim, draw_figures=not args.no_figures)

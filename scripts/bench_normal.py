@@ -29,8 +29,10 @@ def worker(args) -> None:
     petsc4py.init([])
     from mpi4py import MPI
 
-    from roughcontact.elastic.petsc import assemble_flexibility
     from roughcontact.materials import Interface, Material
+    from roughcontact.operators.dense import assemble_flexibility
+    from roughcontact.operators.kernel import punch_kernel
+    from roughcontact.operators.layout import NodeLayout
     from roughcontact.normal import ActiveSetSolver, NormalProblem
     from roughcontact.surfaces import Topography, midpoint_surface
 
@@ -47,7 +49,8 @@ def worker(args) -> None:
         for _ in range(args.repeats):
             comm.Barrier()
             t0 = time.perf_counter()
-            mat = assemble_flexibility(topo, interface, comm)
+            kernel = punch_kernel(topo.shape, topo.spacing, interface.compliance)
+            mat = assemble_flexibility(kernel, NodeLayout.build(topo.footprint, comm), comm)
             comm.Barrier()
             assembly.append(time.perf_counter() - t0)
             mat.destroy()

@@ -116,21 +116,33 @@ def test_sweep_and_cycle_arguments(sphere):
         fretting_cycle(problem, normal, 0.3, 0.1 * normal.load, steps=2).traction(9)
 
 
-def test_q_within_round_off_of_fp_is_full_sliding(sphere):
+def test_q_within_round_off_of_fp_is_solved_or_full_sliding(sphere):
     """Q = fP reached through np.linspace meets f times the *solved* P, which differs from the
-    imposed P by the load-control tolerance: below it, P* = P − Q/f would be a load the normal
-    solve cannot resolve. It is the full-sliding limit with its message, not a ConvergenceError."""
+    imposed P by the load-control tolerance. Just below fP the corrective solve still resolves
+    P* = P − Q/f (one node sticks, Coulomb holds); at or above fP, and when the corrective solve
+    fails within the load tolerance of fP, the result is the full-sliding limit with its
+    message, never a ConvergenceError."""
+    from roughcontact.errors import ConvergenceError
+    from roughcontact.normal import ActiveSetSettings
+
     problem, normal = sphere
     f = 0.4
     with ActiveSetSolver(problem) as solver:
         imposed = solver.solve_load(normal.load)       # the same contact under load control
-    for q in (f * imposed.load * (1 - 1e-12), f * imposed.load * (1 - 2e-9)):
-        with raises("tangential", match="load tolerance"):
-            tangential_sweep(problem, imposed, f, tangential=[0.0, q])
-    with raises("tangential", match="full sliding"):
-        tangential_sweep(problem, imposed, f, tangential=np.linspace(0.0, f * normal.load, 5))
+    for q in (f * imposed.load * (1 - 1e-15), f * imposed.load * (1 - 2e-9),
+              np.linspace(0.0, f * normal.load, 5)[-1]):
+        if q >= f * imposed.load:
+            with raises("tangential", match="full sliding"):
+                tangential_sweep(problem, imposed, f, tangential=[0.0, q])
+            continue
+        state = tangential_sweep(problem, imposed, f, tangential=[0.0, q], include_limit=False).states[-1]
+        assert state.stick.sum() >= 1 and state.coulomb_violation == 0.0
     with raises("amplitude", match="full sliding"):
-        fretting_cycle(problem, imposed, f, f * imposed.load * (1 - 1e-12), steps=2)
-    # 1e-6 below fP is still a partial-slip state (six decades above the tolerance)
-    assert tangential_sweep(problem, imposed, f, tangential=[f * imposed.load * (1 - 1e-6)],
-                            include_limit=False).states[0].slip_area > 0.0
+        fretting_cycle(problem, imposed, f, f * imposed.load * (1 + 1e-12), steps=2)
+    # a corrective solve that cannot converge (one active-set iteration allowed): within the
+    # load tolerance of fP it is the full-sliding limit, far from fP the failure it is
+    starved = dict(settings=ActiveSetSettings(max_outer=1))
+    with raises("tangential", match="load tolerance"):
+        tangential_sweep(problem, imposed, f, tangential=[f * imposed.load * (1 - 2e-9)], **starved)
+    with pytest.raises(ConvergenceError):
+        tangential_sweep(problem, imposed, f, tangential=[0.5 * f * imposed.load], **starved)

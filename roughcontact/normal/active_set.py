@@ -34,17 +34,14 @@ search that finds no decrease, or too many Newton steps raise
 from __future__ import annotations
 
 import hashlib
-import time
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
 
-from ..collective import Collective
 from ..errors import ConvergenceError, InputError
-from ..errors import require_finite as _finite
 from .problem import NormalProblem
 from .result import NormalResult
+from .solver import ContactState, NormalSolver, make_solver
 
 
 @dataclass(frozen=True)
@@ -84,17 +81,16 @@ def _inner_solver(problem: NormalProblem, method: str, rtol: float | None, optio
     if method == "ksp":
         from .petsc import KSPSubsolver
 
-        return KSPSubsolver(problem.operator, problem.start, prefix=prefix,
+        return KSPSubsolver(problem.flexibility, prefix=prefix,
                             rtol=1e-11 if rtol is None else rtol, options=options)
     if method == "gauss-seidel":
         from .gauss_seidel import GaussSeidelSubsolver
 
-        return GaussSeidelSubsolver(problem.operator, problem.start, problem.comm,
-                                    rtol=1e-11 if rtol is None else rtol)
+        return GaussSeidelSubsolver(problem.flexibility, rtol=1e-11 if rtol is None else rtol)
     raise InputError("method", f"must be 'ksp' or 'gauss-seidel', got {method!r}")
 
 
-class ActiveSetSolver(Collective):
+class ActiveSetSolver(NormalSolver):
     """Reusable normal-contact solver on one problem (keeps the inner solver alive).
 
     Parameters
@@ -116,84 +112,27 @@ class ActiveSetSolver(Collective):
     def __init__(self, problem: NormalProblem, method: str = "ksp",
                  settings: ActiveSetSettings = ActiveSetSettings(), rtol: float | None = None,
                  options: dict | None = None, prefix: str = "normal_"):
-        self.problem = problem
+        super().__init__(problem)
         self.settings = settings
         self.inner = _inner_solver(problem, method, rtol, options, prefix)
-        n = problem.local_size
-        # warm-start state: last contact set, last solution columns (full local length)
-        self.active: np.ndarray | None = None
-        self.guesses = np.zeros((n, 4))
-        self.rigid = np.zeros(3)
+        # warm-start columns of the inner solves (full local length): p and the Hessian's
+        self.guesses = np.zeros((problem.local_size, 4))
         self._inner_set: np.ndarray | None = None
 
-    def destroy(self) -> None:
+    @property
+    def description(self) -> str:
+        return f"active set, {self.inner.description}"
+
+    def _release(self) -> None:
         self.inner.destroy()
 
-    # ------------------------------------------------------------------ API
-    def warm_start(self, result: NormalResult) -> None:
-        """Start the next solve from ``result`` (a solution of the same problem):
-        its contact set and rigid motion, e.g. a corrective solve from the actual one."""
-        pb = self.problem
-        self.active = result.contact[pb.topography.footprint][pb.start:pb.stop].copy()
-        self.rigid = np.array([result.closure, *result.rotation], dtype=float)
-
-    def solve_closure(self, closure: float, rotation: tuple[float, float] = (0.0, 0.0)) -> NormalResult:
-        """Displacement control: impose δz and (θx, θy) (Eq. 7)."""
-        closure = _finite("closure", closure)
-        rotation = tuple(_finite(f"rotation[{k}]", v) for k, v in enumerate(_pair("rotation", rotation)))
-        return self._solve(np.array([closure, *rotation]), fixed=(0, 1, 2), loads=np.zeros(3),
-                           control="displacement")
-
-    def solve_load(self, load: float, moments: tuple[float, float] = (0.0, 0.0),
-                   rotation: tuple[float, float] | None = None) -> NormalResult:
-        """Load control: impose P and (Mx, My) about the footprint centroid (Eq. 8).
-
-        The solver finds δz and, unless ``rotation`` fixes them, θx, θy; with a
-        fixed rotation the moments are outputs and ``moments`` must be left 0.
-        """
-        load = _finite("load", load)
-        if load < 0.0:
-            raise InputError("load", f"must be >= 0 (a compressive normal load), got {load!r}")
-        mx, my = (_finite(f"moments[{k}]", v) for k, v in enumerate(_pair("moments", moments)))
-        if rotation is None:
-            fixed, rigid = (), np.zeros(3)
-        else:
-            if mx != 0.0 or my != 0.0:
-                raise InputError("moments", "cannot impose moments with a fixed rotation; "
-                                            "leave rotation=None to let the solver find it")
-            rigid = np.array([0.0, *(_finite(f"rotation[{k}]", v)
-                                     for k, v in enumerate(_pair("rotation", rotation)))])
-            fixed = (1, 2)
-        if load > 0.0 and rotation is None:
-            point = np.array([my, mx]) / load
-            if not self.problem.load_point_inside(point):
-                raise InputError("moments", f"the load point (x, y) = ({point[0] + self.problem.centroid[0]:.6g}, "
-                                            f"{point[1] + self.problem.centroid[1]:.6g}) m lies outside the "
-                                            "footprint: no compressive pressure can balance it")
-        return self._solve(rigid, fixed=fixed, loads=np.array([load, -mx, -my]), control="load")
-
-    # ------------------------------------------------------------ internals
-    def _solve(self, rigid: np.ndarray, fixed: tuple[int, ...], loads: np.ndarray,
-               control: str) -> NormalResult:
-        t0 = time.perf_counter()
-        pb = self.problem
-        free = [k for k in range(3) if k not in fixed]
-        rigid = rigid.astype(float).copy()
+    def _solve(self, rigid, free, loads):
         if not free:
-            state = self._displacement(rigid)
-            return self._finish(state, rigid, control, t0)
-        if loads[0] == 0.0:
-            # no load: the bodies at first touch (free rotations zero, fixed ones kept),
-            # the largest approach with nothing interpenetrating
-            rigid[free] = 0.0
-            rigid[0] = -float(pb.allmax(pb.interpenetration(rigid).max(initial=-np.inf)))
-            n = pb.local_size
-            empty = _State(np.zeros(n), np.zeros(n, bool), -pb.interpenetration(rigid), 0, 0, 0.0, ())
-            return self._finish(empty, rigid, control, t0)
-        return self._load_newton(rigid, free, loads, control, t0)
+            return self._displacement(rigid), rigid
+        return self._load_newton(rigid, free, loads)
 
     # -- displacement control: the paper's active set -------------------------------
-    def _displacement(self, rigid: np.ndarray) -> "_State":
+    def _displacement(self, rigid: np.ndarray) -> ContactState:
         """Contact state for an imposed r = (δz, θx, θy), warm-started from the last set."""
         pb, tol = self.problem, self.settings.tol
         n = pb.local_size
@@ -209,7 +148,7 @@ class ActiveSetSolver(Collective):
             if pb.allsum(active.sum()) == 0:
                 if pb.allmax(float((w > 0.0).any())) == 0:
                     # nothing interpenetrates: no contact, a valid state
-                    state = _State(np.zeros(n), active, -w, outer, linear_its, 0.0, tuple(history))
+                    state = ContactState(np.zeros(n), active, -w, outer, linear_its, 0.0, tuple(history))
                     self.active = active.copy()
                     return state
                 active = w > 0.0
@@ -230,7 +169,7 @@ class ActiveSetSolver(Collective):
             n_changes = pb.allsum(np.array([tension.sum(), penetration.sum()]))
             if n_changes.sum() == 0:
                 self.active = active.copy()
-                return _State(np.where(active, np.maximum(pressure, 0.0), 0.0), active, gap, outer,
+                return ContactState(np.where(active, np.maximum(pressure, 0.0), 0.0), active, gap, outer,
                               linear_its, residual, tuple(history))
             active = (active & ~tension) | self._limit_growth(penetration, gap, active, n_changes[1])
             key = self._set_key(active)
@@ -273,7 +212,7 @@ class ActiveSetSolver(Collective):
         return penetration & (gap <= threshold)
 
     # -- load control: damped Newton on the free rigid motion -------------------------
-    def _load_newton(self, rigid, free, loads, control, t0) -> NormalResult:
+    def _load_newton(self, rigid, free, loads):
         pb, settings = self.problem, self.settings
         target = loads[free]
         # residual scales: P for the load, P times the footprint's half-size for moments
@@ -283,7 +222,7 @@ class ActiveSetSolver(Collective):
             rigid[free] = self.rigid[free]                   # warm start of the unknown motion
         else:
             rigid[free] = 0.0
-            rigid[0] = self._winkler_approach(rigid, loads[0])
+            rigid[0] = self.winkler_approach(rigid, loads[0])
         # step units: approach h, rotations h / extent; the trust radius is in these units
         height = max(pb.height_range, abs(rigid[0]), 1e-12 * extent)
         units = np.array([height, height / extent, height / extent])[free]
@@ -295,9 +234,8 @@ class ActiveSetSolver(Collective):
             error = float(np.max(np.abs(force) / scale))
             history.append(error)
             if error <= settings.load_tol:
-                return self._finish(state._replace(outer=outer, linear=linear, history=tuple(history),
-                                                   residual=max(state.residual, error)),
-                                    rigid, control, t0)
+                return state._replace(outer=outer, linear=linear, history=tuple(history),
+                                      residual=max(state.residual, error)), rigid
             hessian, its = self._hessian(state.active, free)
             linear += its
             step = _newton_step(hessian, force, units, radius)
@@ -357,35 +295,10 @@ class ActiveSetSolver(Collective):
             self.guesses[active, k] = basis[:, j]
         return pb.allsum(cols.T @ basis), its
 
-    def _winkler_approach(self, rigid, load: float) -> float:
-        """Load control, cold start: the approach of independent punches.
-
-        Each node alone is a spring of stiffness 1/H_ii; δ solves
-        Σ (δ − b_i)⁺ / H_ii = P, with b_i the initial gap under the imposed
-        rotation. Interaction between nodes only softens the surface, so this
-        underestimates δz and the Newton iteration continues from a small,
-        cheap contact set.
-        """
-        pb = self.problem
-        diagonal = pb.operator.getDiagonal()
-        stiffness = pb.gather(1.0 / diagonal.getArray())
-        diagonal.destroy()
-        imposed = rigid.copy()
-        imposed[0] = 0.0
-        gaps = pb.gather(-pb.interpenetration(imposed))    # gap at zero approach
-        order = np.argsort(gaps, kind="stable")
-        b, k = gaps[order], stiffness[order]
-        approach = (load + np.cumsum(k * b)) / np.cumsum(k)  # δ if the first m+1 nodes touch
-        upper = np.append(b[1:], np.inf)
-        m = int(np.argmax((approach >= b) & (approach <= upper)))
-        return float(approach[m])
-
     def _gap(self, pressure: np.ndarray, rigid: np.ndarray, active: np.ndarray) -> np.ndarray:
         """Deformed gap g = H p − w (Eq. 7: zero on S, positive outside); p is zero off S."""
-        from ..operators.dense import apply_on_columns
-
         pb = self.problem
-        return apply_on_columns(pb.operator, pressure, active, pb.start) - pb.interpenetration(rigid)
+        return pb.displacement(pressure) - pb.interpenetration(rigid)
 
     def _w_scale(self, rigid) -> float:
         w = self.problem.interpenetration(rigid)
@@ -404,49 +317,6 @@ class ActiveSetSolver(Collective):
     def _set_key(self, active: np.ndarray) -> bytes:
         digest = hashlib.sha1(np.packbits(active).tobytes()).digest()
         return b"".join(self.problem.comm.allgather(digest))
-
-    def _finish(self, state: "_State", rigid, control, t0) -> NormalResult:
-        pb = self.problem
-        pressure, active, gap = state.pressure, state.active, state.gap
-        self.active = active.copy()
-        self.rigid = rigid.copy()
-        forces = pb.gather(pressure)
-        contact = pb.gather(active)
-        gaps = pb.gather(np.where(active, 0.0, gap))
-        moments = pb.allsum(np.array([pressure.sum(), pressure @ pb.y, pressure @ pb.x]))
-        load = float(moments[0])
-        s = pb.topography.spacing
-        if load > 0.0:
-            centroid = (pb.centroid[0] + moments[2] / load, pb.centroid[1] + moments[1] / load)
-        else:
-            centroid = (float("nan"), float("nan"))
-        n_contact = int(contact.sum())
-        return NormalResult(
-            force=pb.to_field(forces), pressure=pb.to_field(forces / s**2),
-            contact=pb.to_field(contact, False), gap=pb.to_field(gaps, np.nan),
-            load=load, moments=(float(moments[1]), float(moments[2])),
-            centroid=(float(centroid[0]), float(centroid[1])),
-            reference_point=(float(pb.centroid[0]), float(pb.centroid[1])),
-            closure=float(rigid[0]), rotation=(float(rigid[1]), float(rigid[2])),
-            contact_area=n_contact * s**2, nominal_area=pb.size * s**2,
-            outer_iterations=state.outer, linear_iterations=int(state.linear),
-            residual=float(state.residual), elapsed=time.perf_counter() - t0,
-            solver=self.inner.description, control=control,
-            no_contact=n_contact == 0, full_contact=n_contact == pb.size,
-            residual_history=tuple(state.history))
-
-
-class _State(NamedTuple):
-    """A converged displacement-controlled contact state on this rank's nodes."""
-
-    pressure: np.ndarray
-    active: np.ndarray
-    gap: np.ndarray
-    outer: int
-    linear: int
-    residual: float
-    history: tuple
-
 
 def _newton_step(hessian: np.ndarray, force: np.ndarray, units: np.ndarray, radius: float) -> np.ndarray:
     """Newton step on Φ within a trust region, robust to a contact set that cannot fix r yet.
@@ -474,14 +344,6 @@ def _newton_step(hessian: np.ndarray, force: np.ndarray, units: np.ndarray, radi
     return step * units
 
 
-def _pair(name: str, value) -> tuple:
-    try:
-        a, b = value
-    except (TypeError, ValueError):
-        raise InputError(name, f"must be a pair (x, y), got {value!r}") from None
-    return a, b
-
-
 def _increasing(name: str, values) -> np.ndarray:
     arr = np.asarray(values, dtype=float).ravel()
     if arr.size == 0:
@@ -497,7 +359,7 @@ def solve_closures(problem: NormalProblem, closures, rotation=(0.0, 0.0), method
                    **kwargs) -> list[NormalResult]:
     """Displacement control over increasing closures δz, each warm-started (§3.1)."""
     closures = _increasing("closures", closures)
-    with ActiveSetSolver(problem, method, **kwargs) as solver:
+    with make_solver(problem, method, **kwargs) as solver:
         return [solver.solve_closure(c, rotation) for c in closures]
 
 
@@ -505,5 +367,5 @@ def solve_loads(problem: NormalProblem, loads, moments=(0.0, 0.0), rotation=None
                 method: str = "ksp", **kwargs) -> list[NormalResult]:
     """Load control over increasing loads P (same moments or fixed rotation), warm-started."""
     loads = _increasing("loads", loads)
-    with ActiveSetSolver(problem, method, **kwargs) as solver:
+    with make_solver(problem, method, **kwargs) as solver:
         return [solver.solve_load(p, moments, rotation) for p in loads]

@@ -24,23 +24,17 @@ class GaussSeidelSubsolver:
 
     name = "gauss-seidel"
 
-    def __init__(self, operator, start: int, comm, rtol: float = 1e-11, max_sweeps: int = 20000):
-        self.operator = operator
-        self.start = start
-        self.comm = comm
+    def __init__(self, flexibility, rtol: float = 1e-11, max_sweeps: int = 20000):
+        self.flexibility = flexibility
+        self.comm = flexibility.comm
         self.rtol = rtol
         self.max_sweeps = max_sweeps
         self.description = f"gauss-seidel (rtol={rtol:g}, max_sweeps={max_sweeps})"
 
     def set_active(self, active: np.ndarray) -> None:
-        from petsc4py import PETSc
-
-        rows = (np.flatnonzero(active) + self.start).astype(PETSc.IntType)
-        index_set = PETSc.IS().createGeneral(rows, comm=self.operator.getComm())
-        sub = self.operator.createSubMatrix(index_set, index_set)
+        sub = self.flexibility.block(active, explicit=True)
         matrix = gather_dense(sub, self.comm)
         sub.destroy()
-        index_set.destroy()
         self.lower = np.tril(matrix)
         self.upper = np.triu(matrix, 1)
         self.counts = self.comm.allgather(int(active.sum()))

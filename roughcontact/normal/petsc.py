@@ -1,12 +1,16 @@
 """Krylov solves on the current contact set: H_SS p_S = b with a PETSc KSP (§3.1).
 
-The sub-operator H_SS is ``H.createSubMatrix(S, S)``, so any PETSc Mat that
-supports ``createSubMatrix`` (dense, or a matrix-free Python context) works.
-Defaults (CG, no preconditioner: the Eq. 10 matrix is symmetric positive
-definite with a constant diagonal) are set in code, then ``setFromOptions``
-reads the options database under the prefix (default ``normal_``), so
-``-normal_ksp_type gmres -normal_ksp_monitor`` work from the command line.
-Every solve checks the converged reason; a negative reason raises
+The sub-operator H_SS is the operator's block on S
+(:meth:`~roughcontact.operators.flexibility.Flexibility.block`): an explicit
+matrix when S is small, the matrix-free restriction otherwise. Defaults are
+set in code: CG (the Eq. 10 matrix is symmetric positive definite), without
+preconditioner on an explicit block (its diagonal is constant) and with the
+Fourier preconditioner of the contact set (:class:`FourierPC`, a Python PC)
+on a matrix-free one; then ``setFromOptions`` reads the options database
+under the prefix (default ``normal_``), so ``-normal_ksp_type gmres
+-normal_pc_type none -normal_ksp_monitor`` work from the command line and a
+``pc_type`` given there is kept for every block. Every solve checks the
+converged reason; a negative reason raises
 :class:`~roughcontact.errors.ConvergenceError` naming it.
 """
 from __future__ import annotations
@@ -44,15 +48,27 @@ class OptionsScope:
         self.keys = []
 
 
+class FourierPC:
+    """Python PC context: z = R_S C⁻¹ R_Sᵀ r, the Fourier preconditioner of H_SS
+    (:mod:`roughcontact.operators.preconditioner`) on the current contact set."""
+
+    def __init__(self, flexibility):
+        self.flexibility = flexibility
+        self.active: np.ndarray | None = None
+        self.values = np.zeros(flexibility.layout.local_size)
+
+    def apply(self, pc, x, y):
+        self.values[self.active] = x.getArray(readonly=True)
+        y.getArray()[:] = self.flexibility.precondition(self.values, self.active)[self.active]
+
+
 class KSPSubsolver:
     """Solve H_SS x = b on the active set with a PETSc KSP.
 
     Parameters
     ----------
-    operator
-        The full flexibility Mat H.
-    start
-        First global row owned by this rank.
+    flexibility
+        The operator H (:class:`~roughcontact.operators.flexibility.Flexibility`).
     prefix
         Options prefix (``normal_``).
     rtol, max_it
@@ -64,20 +80,21 @@ class KSPSubsolver:
 
     name = "ksp"
 
-    def __init__(self, operator: PETSc.Mat, start: int, prefix: str = "normal_",
+    def __init__(self, flexibility, prefix: str = "normal_",
                  rtol: float = 1e-11, max_it: int = 10000, options: dict | None = None):
-        self.operator = operator
-        self.start = start
+        self.flexibility = flexibility
         self.scope = OptionsScope(prefix, options)
-        self.ksp = PETSc.KSP().create(operator.getComm())
+        self.ksp = PETSc.KSP().create(flexibility.comm)
         self.ksp.setOptionsPrefix(prefix)
         self.ksp.setType(PETSc.KSP.Type.CG)
         self.ksp.getPC().setType(PETSc.PC.Type.NONE)
         self.ksp.setTolerances(rtol=rtol, atol=0.0, max_it=max_it)
         self.ksp.setInitialGuessNonzero(True)
         self.ksp.setFromOptions()
+        # a pc_type from the options database wins over the per-block default
+        self.user_pc = PETSc.Options().hasName(prefix + "pc_type")
+        self.fourier = FourierPC(flexibility)
         self.sub = None
-        self.index_set = None
         self.x = self.b = self.r = None
 
     @property
@@ -89,10 +106,16 @@ class KSPSubsolver:
     def set_active(self, active: np.ndarray) -> None:
         """Restrict to the active local nodes (boolean mask over owned rows)."""
         self._free_sub()
-        rows = (np.flatnonzero(active) + self.start).astype(PETSc.IntType)
-        self.index_set = PETSc.IS().createGeneral(rows, comm=self.operator.getComm())
-        self.sub = self.operator.createSubMatrix(self.index_set, self.index_set)
+        self.sub = self.flexibility.block(active)
         self.ksp.setOperators(self.sub)
+        if not self.user_pc:
+            pc = self.ksp.getPC()
+            if self.sub.getType() == PETSc.Mat.Type.PYTHON:
+                self.fourier.active = active.copy()
+                pc.setType(PETSc.PC.Type.PYTHON)
+                pc.setPythonContext(self.fourier)
+            else:
+                pc.setType(PETSc.PC.Type.NONE)
         self.x, self.b = self.sub.createVecs()
         self.r = self.b.duplicate()
 
@@ -121,10 +144,10 @@ class KSPSubsolver:
     def _free_sub(self) -> None:
         # the contact set changes size: the KSP must drop its old work vectors
         self.ksp.reset()
-        for obj in (self.sub, self.index_set, self.x, self.b, self.r):
+        for obj in (self.sub, self.x, self.b, self.r):
             if obj is not None:
                 obj.destroy()
-        self.sub = self.index_set = self.x = self.b = self.r = None
+        self.sub = self.x = self.b = self.r = None
 
     def destroy(self) -> None:
         self._free_sub()

@@ -18,12 +18,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
+from ..collective import Collective
 from ..materials import Interface
 from ..surfaces.topography import Topography
 
 
-class NormalProblem:
+class NormalProblem(Collective):
     """Layout of one normal contact problem on a communicator.
 
     Parameters
@@ -35,20 +35,32 @@ class NormalProblem:
     comm
         mpi4py communicator the operator is distributed on.
     operator
-        A PETSc Mat for H over the footprint nodes (rows split as
-        :func:`roughcontact.elastic.petsc.ownership`); assembled as MATDENSE
-        (Eq. 10) when omitted.
+        The flexibility operator H over the footprint nodes: ``"dense"``
+        (the explicit Eq. 10 matrix), ``"fft"`` (matrix-free, zero-padded
+        FFT convolution), ``"fft-periodic"`` (the grid is one period) or a
+        user's PETSc Mat (rows owned as :class:`~roughcontact.operators.layout.NodeLayout`).
+        See :class:`~roughcontact.operators.flexibility.Flexibility`.
+    workers
+        FFT threads per rank (default: the node's cores shared by its ranks).
     """
 
-    def __init__(self, topography: Topography, interface: Interface, comm, operator=None):
-        from ..operators.dense import assemble_flexibility, ownership
+    def __init__(self, topography: Topography, interface: Interface, comm, operator="dense",
+                 workers: int | None = None):
+        from ..operators.flexibility import Flexibility
 
         self.topography = topography
         self.interface = interface
         self.comm = comm
-        self.nodes = np.argwhere(topography.footprint)
-        self.size = self.nodes.shape[0]
-        self.start, self.stop = ownership(self.size, comm)
+        if isinstance(operator, str):
+            self.flexibility = Flexibility(topography, interface, comm, kind=operator, workers=workers)
+            self._owns_operator = True
+        else:
+            self.flexibility = Flexibility.from_mat(operator, topography, comm)
+            self._owns_operator = False
+        layout = self.flexibility.layout
+        self.nodes = layout.nodes()
+        self.size = layout.size
+        self.start, self.stop = layout.start, layout.stop
         s = topography.spacing
         xy = self.nodes * s
         self.centroid = xy.mean(axis=0)
@@ -60,13 +72,22 @@ class NormalProblem:
         # the scale of heights, used to make gap tolerances relative
         self.height_range = float(np.ptp(heights)) if heights.size > 1 else 0.0
         self.columns = np.stack([np.ones_like(self.x), -self.y, -self.x], axis=1)
-        self._owns_operator = operator is None
-        self.operator = assemble_flexibility(topography, interface, comm) if operator is None else operator
-        rows = self.operator.getOwnershipRange()
-        if tuple(rows) != (self.start, self.stop) or self.operator.getSize()[0] != self.size:
-            raise InputError("operator", f"has {self.operator.getSize()[0]} rows owned {tuple(rows)} on this "
-                             f"rank; the footprint has {self.size} nodes owned ({self.start}, {self.stop})")
         self._all_xy = xy - self.centroid
+
+    @property
+    def operator(self):
+        """The PETSc Mat of H (MATDENSE or matrix-free)."""
+        return self.flexibility.mat
+
+    @property
+    def operator_kind(self) -> str:
+        """Which operator: ``"dense"``, ``"fft"``, ``"fft-periodic"`` or ``"user (<Mat type>)"``."""
+        return self.flexibility.kind
+
+    def displacement(self, forces: np.ndarray) -> np.ndarray:
+        """u = H p on this rank's nodes for nodal forces p on this rank's nodes (Eq. 9)."""
+        self._check_alive()
+        return self.flexibility.product(forces)
 
     @property
     def extent(self) -> float:
@@ -119,8 +140,7 @@ class NormalProblem:
         tol = 1e-9 * self.topography.spacing
         return bool(np.all(hull.equations[:, :2] @ point + hull.equations[:, 2] <= tol))
 
-    def destroy(self) -> None:
-        """Free the operator if this problem assembled it (collective)."""
-        if self._owns_operator and self.operator is not None:
-            self.operator.destroy()
-        self.operator = None
+    def _release(self) -> None:
+        """Free the operator if this problem built it (collective)."""
+        if self._owns_operator:
+            self.flexibility.destroy()

@@ -37,6 +37,7 @@ class NormalResult:
     control: str
     no_contact: bool
     full_contact: bool
+    operator: str = "dense"
     converged: bool = True
     reason: str = "CONVERGED"
     residual_history: tuple[float, ...] = field(default_factory=tuple)

@@ -12,8 +12,10 @@ the limit arcsin(1) = π/2 of the same formula, so the kernel is evaluated with
 arcsin(min(1, a/r)).
 
 On a regular grid H_ij depends only on (|Δi|, |Δj|): the kernel is tabulated
-once on the grid's offsets, mirrored to signed offsets, and each row is a
-window of that table read at the footprint's nodes (a strided copy).
+once on the grid's offsets (:func:`punch_kernel`). Blocks of H are read from
+that table: whole rows as windows of the table mirrored to signed offsets
+(:func:`influence_rows`, a strided copy per row), or the entries between two
+sets of nodes (:func:`kernel_block`, a gather).
 """
 from __future__ import annotations
 
@@ -43,12 +45,12 @@ def mirrored_kernel(kernel: np.ndarray) -> np.ndarray:
 
 
 def influence_rows(kernel: np.ndarray, footprint: np.ndarray, rows: slice,
-                   out: np.ndarray | None = None, block: int = 256) -> np.ndarray:
+                   columns: tuple[int, int] | None = None, out: np.ndarray | None = None) -> np.ndarray:
     """Rows of the flexibility matrix H (Eq. 10) over the footprint nodes.
 
     The row of node (i, j) is the window of the mirrored table whose origin
-    sits on (i, j), read at the footprint's nodes: one strided copy per row
-    instead of an indexed gather.
+    sits on (i, j), read at the footprint's nodes: one strided copy per row,
+    written straight into ``out``.
 
     Parameters
     ----------
@@ -59,23 +61,59 @@ def influence_rows(kernel: np.ndarray, footprint: np.ndarray, rows: slice,
         (``numpy.argwhere(footprint)``).
     rows
         Which rows (a slice of the unknowns) to build.
+    columns
+        Restrict the columns to the footprint nodes of grid rows
+        [start, stop) (default: all nodes).
     out
-        Optional output array (rows, N), any memory order.
-    block
-        Rows built in a C-ordered buffer before each copy into ``out``.
+        Optional C-ordered output array (rows, columns).
     """
     nx, ny = footprint.shape
     ext = mirrored_kernel(kernel)
     row_nodes = np.argwhere(footprint)[rows]
-    n_rows, n = row_nodes.shape[0], int(footprint.sum())
-    whole = bool(footprint.all())
+    c0, c1 = (0, nx) if columns is None else columns
+    mask = footprint[c0:c1]
+    whole = bool(mask.all())
     if out is None:
-        out = np.empty((n_rows, n))
-    buffer = np.empty((min(block, n_rows), n))
-    for start in range(0, n_rows, block):
-        stop = min(start + block, n_rows)
-        for k, (i, j) in enumerate(row_nodes[start:stop]):
-            window = ext[nx - 1 - i: 2 * nx - 1 - i, ny - 1 - j: 2 * ny - 1 - j]
-            buffer[k] = window.ravel() if whole else window[footprint]
-        out[start:stop] = buffer[: stop - start]
+        out = np.empty((row_nodes.shape[0], int(mask.sum())))
+    for k, (i, j) in enumerate(row_nodes):
+        window = ext[nx - 1 - i + c0: nx - 1 - i + c1, ny - 1 - j: 2 * ny - 1 - j]
+        if whole:
+            out[k].reshape(mask.shape)[...] = window
+        else:
+            out[k] = window[mask]
+    return out
+
+
+def kernel_block(kernel: np.ndarray, row_nodes: np.ndarray, column_nodes: np.ndarray,
+                 periodic_shape: tuple[int, int] | None = None, out: np.ndarray | None = None,
+                 chunk: int = 1 << 22) -> np.ndarray:
+    """H between two node sets, H[a, b] = K[|i_a − i_b|, |j_a − j_b|] (Eq. 10).
+
+    ``row_nodes`` and ``column_nodes`` are (m, 2) and (n, 2) arrays of grid
+    indices; the (m, n) block is gathered from the table in chunks of about
+    ``chunk`` entries so the index temporaries stay small. With
+    ``periodic_shape`` the table is a periodic kernel over one period and is
+    read at the offsets modulo the period.
+    """
+    ny = kernel.shape[1]
+    flat = kernel.ravel()
+    m, n = row_nodes.shape[0], column_nodes.shape[0]
+    if out is None:
+        out = np.empty((m, n))
+    ci = column_nodes[:, 0].astype(np.int64)
+    cj = column_nodes[:, 1].astype(np.int64)
+    step = max(1, chunk // max(n, 1))
+    for start in range(0, m, step):
+        stop = min(m, start + step)
+        di = row_nodes[start:stop, 0, None].astype(np.int64) - ci
+        dj = row_nodes[start:stop, 1, None].astype(np.int64) - cj
+        if periodic_shape is None:
+            np.abs(di, out=di)
+            np.abs(dj, out=dj)
+        else:
+            np.mod(di, periodic_shape[0], out=di)
+            np.mod(dj, periodic_shape[1], out=dj)
+        di *= ny
+        di += dj
+        np.take(flat, di, out=out[start:stop])
     return out

@@ -34,8 +34,8 @@ import warnings
 import numpy as np
 
 from ..collective import Collective
-from ..errors import InputError, require_finite
-from ..normal.active_set import ActiveSetSettings, ActiveSetSolver
+from ..errors import ConvergenceError, InputError, require_finite
+from ..normal.solver import make_solver
 from ..normal.problem import NormalProblem
 from ..normal.result import NormalResult
 from .energy import frictional_energy, stored_energy
@@ -72,31 +72,31 @@ def check_direction(direction) -> tuple[float, float]:
     return ex / norm, ey / norm
 
 
-#: Q within this fraction of fP is the full-sliding limit. A load-controlled normal solve meets
-#: its load only to ``ActiveSetSettings.load_tol`` (the solved P differs from the imposed one by
+#: Q within this fraction of fP may be the full-sliding limit. A load-controlled normal solve
+#: meets its load only to its load tolerance (1e-8; the solved P differs from the imposed one by
 #: ~1e-13 relative in practice), so Q = fP reached as ``np.linspace(0, f * P, n)[-1]`` may sit a
-#: hair below f times the solved P; the corrective load P* = P − Q/f is then below the
-#: resolution of P itself and cannot be solved for (Eq. 23).
-FULL_SLIDING_RTOL = ActiveSetSettings.load_tol
+#: hair below f times the solved P, and the corrective load P* = P − Q/f is then below the
+#: resolution of P itself. In this band a corrective solve that fails means full sliding and is
+#: reported as such; one that succeeds (P* = 1e-9 P still leaves a sticking node) is kept.
+FULL_SLIDING_RTOL = 1e-8
 
 
 def check_tangential(tangential, friction: float, load: float, name: str = "tangential") -> float:
-    """Q as a float in [0, fP), or :class:`InputError` saying why not.
-
-    Q ≥ fP (1 − :data:`FULL_SLIDING_RTOL`) counts as full sliding: P* would be
-    within the normal solve's load tolerance of zero.
-    """
+    """Q as a float in [0, fP), or :class:`InputError` saying why not (Q ≥ fP: full sliding)."""
     q = require_finite(name, tangential)
     if q < 0.0:
         raise InputError(name, f"must be >= 0, got {q!r}; reverse `direction` for a load the other way")
-    limit = friction * load
-    if q >= limit * (1.0 - FULL_SLIDING_RTOL):
-        within = "" if q >= limit else f" to within the normal solve's load tolerance ({FULL_SLIDING_RTOL:g})"
-        raise InputError(
-            name, f"Q = {q:.6g} N >= fP = {limit:.6g} N{within}: full sliding. The traction is then f p "
-                  "everywhere but the tangential displacements are undetermined (§5.2); use "
-                  "CattaneoSolver.incipient_sliding() for the limit Q -> fP (Eq. 27)")
+    if q >= friction * load:
+        raise full_sliding(name, q, friction * load)
     return q
+
+
+def full_sliding(name: str, q: float, limit: float, within: bool = False) -> InputError:
+    """The error for Q at or beyond fP (``within``: below fP by less than the load tolerance)."""
+    detail = f" to within the normal solve's load tolerance ({FULL_SLIDING_RTOL:g})" if within else ""
+    return InputError(name, f"Q = {q:.6g} N >= fP = {limit:.6g} N{detail}: full sliding. The traction is then "
+                            "f p everywhere but the tangential displacements are undetermined (§5.2); use "
+                            "CattaneoSolver.incipient_sliding() for the limit Q -> fP (Eq. 27)")
 
 
 def first_touch_gap(problem: NormalProblem, rotation: tuple[float, float]) -> np.ndarray:
@@ -125,9 +125,9 @@ def incipient_sliding_energy(problem: NormalProblem, normal: NormalResult, frict
 class CattaneoSolver(Collective):
     """Tangential states of one normal contact under Q along ``direction`` (Eqs. 20–27).
 
-    Keeps one corrective :class:`~roughcontact.normal.ActiveSetSolver`, so a
-    sweep of increasing Q (decreasing P*) warm-starts each corrective solve
-    from the last stick set; the first starts from the actual contact set.
+    Keeps one corrective normal solver (:func:`~roughcontact.normal.make_solver`),
+    so a sweep of increasing Q (decreasing P*) warm-starts each corrective
+    solve from the last stick set; the first starts from the actual contact set.
 
     Parameters
     ----------
@@ -139,10 +139,12 @@ class CattaneoSolver(Collective):
         Coulomb coefficient f > 0.
     direction
         In-plane direction of Q, any non-zero vector (normalised here).
-    method, settings, rtol, options
-        The corrective solver's, as :class:`~roughcontact.normal.ActiveSetSolver`.
-    prefix
-        PETSc options prefix of the corrective solves (``-cattaneo_ksp_monitor``).
+    method
+        The corrective solver's method (``"ksp"``, ``"gauss-seidel"``, ``"cg"``).
+    **solver_options
+        Its options (``settings``, ``rtol``, ``options``, ``prefix``); the
+        active-set methods read PETSc options under the prefix ``cattaneo_``
+        by default (``-cattaneo_ksp_monitor``).
 
     Notes
     -----
@@ -151,17 +153,16 @@ class CattaneoSolver(Collective):
     """
 
     def __init__(self, problem: NormalProblem, normal: NormalResult, friction: float,
-                 direction=(1.0, 0.0), method: str = "ksp",
-                 settings: ActiveSetSettings = ActiveSetSettings(), rtol: float | None = None,
-                 options: dict | None = None, prefix: str = "cattaneo_"):
+                 direction=(1.0, 0.0), method: str = "ksp", **solver_options):
         self.friction = check_friction(friction)
         self.direction = check_direction(direction)
         check_normal(problem, normal)
         self.problem = problem
         self.normal = normal
         self.model = cattaneo_model(problem.interface)
-        self.solver = ActiveSetSolver(problem, method, settings=settings, rtol=rtol, options=options,
-                                      prefix=prefix)
+        if method in ("ksp", "gauss-seidel"):
+            solver_options.setdefault("prefix", "cattaneo_")
+        self.solver = make_solver(problem, method, **solver_options)
         # warm start of the first corrective solve: the actual contact set and motion (Eq. 23
         # receding: the stick set is a subset of it)
         self.solver.warm_start(normal)
@@ -171,7 +172,7 @@ class CattaneoSolver(Collective):
         """fP, the tangential load of incipient full sliding (N)."""
         return self.friction * self.normal.load
 
-    def destroy(self) -> None:
+    def _release(self) -> None:
         """Free the corrective solver (collective)."""
         self.solver.destroy()
 
@@ -185,6 +186,7 @@ class CattaneoSolver(Collective):
             ``tangential`` negative, not finite, or ≥ fP (full sliding:
             displacements undetermined).
         """
+        self._check_alive()
         t0 = time.perf_counter()
         f, normal = self.friction, self.normal
         q_load = check_tangential(tangential, f, normal.load)
@@ -194,7 +196,12 @@ class CattaneoSolver(Collective):
             traction = np.zeros_like(normal.force)
             stick = normal.contact.copy()
         else:
-            corrective = self.solver.solve_load(normal.load - q_load / f, rotation=normal.rotation)
+            try:
+                corrective = self.solver.solve_load(normal.load - q_load / f, rotation=normal.rotation)
+            except ConvergenceError:
+                if q_load >= self.limit_load * (1.0 - FULL_SLIDING_RTOL):
+                    raise full_sliding("tangential", q_load, self.limit_load, within=True) from None
+                raise
             # Eq. 21; the stick set lies inside the contact set (receding problem), and a node of
             # p* outside it would show as negative traction in coulomb_violation
             stick = corrective.contact.copy()
@@ -215,6 +222,7 @@ class CattaneoSolver(Collective):
         E_f = Σ_S f² p̄ Δh = E_tot (Eq. 27). Beyond this limit displacements are
         undetermined.
         """
+        self._check_alive()
         t0 = time.perf_counter()
         f, normal, pb = self.friction, self.normal, self.problem
         gap = pb.to_field(first_touch_gap(pb, normal.rotation), np.nan)
@@ -261,14 +269,9 @@ class CattaneoSolver(Collective):
 
     def _displacement(self, traction: np.ndarray) -> np.ndarray:
         """u_x = H q̄ (Eq. 17) on the footprint, NaN outside it."""
-        from ..operators.dense import apply_on_columns
-
         pb = self.problem
-        footprint = pb.topography.footprint
-        local = slice(pb.start, pb.stop)
-        values = traction[footprint][local]
-        loaded = self.normal.contact[footprint][local]      # q is zero off the contact set
-        return pb.to_field(pb.gather(apply_on_columns(pb.operator, values, loaded, pb.start)), np.nan)
+        values = traction[pb.topography.footprint][pb.start:pb.stop]
+        return pb.to_field(pb.gather(pb.displacement(values)), np.nan)
 
 
 def _centroid(traction: np.ndarray, zone: np.ndarray, spacing: float) -> tuple[float, float]:

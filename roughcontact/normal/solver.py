@@ -1,0 +1,205 @@
+"""What every normal-contact solver shares: the controls of Eqs. 7–8, cold starts, the result.
+
+A solver imposes the rigid-body motion r = (δz, θx, θy) or its conjugate
+loads (P, Mx, My) (Eqs. 7–8): :meth:`NormalSolver.solve_closure` fixes all of
+r (displacement control); :meth:`NormalSolver.solve_load` imposes P and
+either the moments (θ free) or the rotation (moments are outputs). Methods
+differ only in how they find the contact state, :meth:`NormalSolver._solve`:
+
+- ``"ksp"`` / ``"gauss-seidel"``: the paper's active set (§3.1) with Krylov or
+  Gauss–Seidel inner solves, load control by Newton on r
+  (:mod:`.active_set`);
+- ``"cg"``: bound-constrained conjugate gradients that update the contact
+  set inside the iteration and impose the loads as linear constraints
+  (:mod:`.constrained_cg`).
+
+:func:`make_solver` builds one by name.
+"""
+from __future__ import annotations
+
+import time
+from typing import NamedTuple
+
+import numpy as np
+
+from ..collective import Collective
+from ..errors import InputError
+from ..errors import require_finite as _finite
+from .problem import NormalProblem
+from .result import NormalResult
+
+METHODS = ("ksp", "gauss-seidel", "cg")
+
+
+class ContactState(NamedTuple):
+    """A converged contact state on this rank's nodes, before it becomes a :class:`NormalResult`."""
+
+    pressure: np.ndarray          # nodal forces p̄ (N)
+    active: np.ndarray            # contact set S
+    gap: np.ndarray               # deformed gap (m), 0 on S
+    outer: int                    # outer (active-set / Newton) iterations
+    linear: int                   # inner linear iterations or CG iterations
+    residual: float               # relative complementarity residual
+    history: tuple                # residual history
+
+
+class NormalSolver(Collective):
+    """Base of the normal solvers: controls, input checks, warm starts, results.
+
+    Subclasses implement :meth:`_solve` and :attr:`description`.
+    """
+
+    def __init__(self, problem: NormalProblem):
+        problem._check_alive()
+        self.problem = problem
+        # warm-start state: last contact set, forces and rigid motion on this rank
+        self.active: np.ndarray | None = None
+        self.forces: np.ndarray | None = None
+        self.rigid = np.zeros(3)
+
+    description = ""
+
+    # ------------------------------------------------------------------ API
+    def warm_start(self, result: NormalResult) -> None:
+        """Start the next solve from ``result`` (a solution of the same problem):
+        its contact set, forces and rigid motion, e.g. a corrective solve from the actual one."""
+        self._check_alive()
+        pb = self.problem
+        footprint = pb.topography.footprint
+        self.active = result.contact[footprint][pb.start:pb.stop].copy()
+        self.forces = result.force[footprint][pb.start:pb.stop].copy()
+        self.rigid = np.array([result.closure, *result.rotation], dtype=float)
+
+    def solve_closure(self, closure: float, rotation: tuple[float, float] = (0.0, 0.0)) -> NormalResult:
+        """Displacement control: impose δz and (θx, θy) (Eq. 7)."""
+        self._check_alive()
+        closure = _finite("closure", closure)
+        rotation = tuple(_finite(f"rotation[{k}]", v) for k, v in enumerate(_pair("rotation", rotation)))
+        return self._run(np.array([closure, *rotation]), fixed=(0, 1, 2), loads=np.zeros(3),
+                         control="displacement")
+
+    def solve_load(self, load: float, moments: tuple[float, float] = (0.0, 0.0),
+                   rotation: tuple[float, float] | None = None) -> NormalResult:
+        """Load control: impose P and (Mx, My) about the footprint centroid (Eq. 8).
+
+        The solver finds δz and, unless ``rotation`` fixes them, θx, θy; with a
+        fixed rotation the moments are outputs and ``moments`` must be left 0.
+        """
+        self._check_alive()
+        load = _finite("load", load)
+        if load < 0.0:
+            raise InputError("load", f"must be >= 0 (a compressive normal load), got {load!r}")
+        mx, my = (_finite(f"moments[{k}]", v) for k, v in enumerate(_pair("moments", moments)))
+        if rotation is None:
+            fixed, rigid = (), np.zeros(3)
+        else:
+            if mx != 0.0 or my != 0.0:
+                raise InputError("moments", "cannot impose moments with a fixed rotation; "
+                                            "leave rotation=None to let the solver find it")
+            rigid = np.array([0.0, *(_finite(f"rotation[{k}]", v)
+                                     for k, v in enumerate(_pair("rotation", rotation)))])
+            fixed = (1, 2)
+        if load > 0.0 and rotation is None:
+            point = np.array([my, mx]) / load
+            if not self.problem.load_point_inside(point):
+                raise InputError("moments", f"the load point (x, y) = ({point[0] + self.problem.centroid[0]:.6g}, "
+                                            f"{point[1] + self.problem.centroid[1]:.6g}) m lies outside the "
+                                            "footprint: no compressive pressure can balance it")
+        return self._run(rigid, fixed=fixed, loads=np.array([load, -mx, -my]), control="load")
+
+    # ------------------------------------------------------------ internals
+    def _run(self, rigid: np.ndarray, fixed: tuple[int, ...], loads: np.ndarray, control: str) -> NormalResult:
+        t0 = time.perf_counter()
+        self.problem._check_alive()
+        free = [k for k in range(3) if k not in fixed]
+        rigid = rigid.astype(float).copy()
+        if free and loads[0] == 0.0:
+            # no load: the bodies at first touch (free rotations zero, fixed ones kept),
+            # the largest approach with nothing interpenetrating
+            pb = self.problem
+            rigid[free] = 0.0
+            rigid[0] = -float(pb.allmax(pb.interpenetration(rigid).max(initial=-np.inf)))
+            n = pb.local_size
+            state = ContactState(np.zeros(n), np.zeros(n, bool), -pb.interpenetration(rigid), 0, 0, 0.0, ())
+        else:
+            state, rigid = self._solve(rigid, free, loads)
+        return self._finish(state, rigid, control, t0)
+
+    def _solve(self, rigid: np.ndarray, free: list[int], loads: np.ndarray) -> tuple[ContactState, np.ndarray]:
+        """The contact state for r with the components ``free`` found from ``loads[free]``."""
+        raise NotImplementedError  # pragma: no cover - overridden
+
+    def winkler_approach(self, rigid: np.ndarray, load: float) -> float:
+        """Load control, cold start: the approach of independent punches.
+
+        Each node alone is a spring of stiffness 1/H_ii; δ solves
+        Σ (δ − b_i)⁺ / H_ii = P, with b_i the initial gap under the imposed
+        rotation. Interaction between nodes only softens the surface, so this
+        underestimates δz and the iteration continues from a small, cheap
+        contact set.
+        """
+        pb = self.problem
+        stiffness = 1.0 / pb.flexibility.diagonal
+        imposed = rigid.copy()
+        imposed[0] = 0.0
+        gaps = np.sort(pb.gather(-pb.interpenetration(imposed)), kind="stable")   # gap at zero approach
+        approach = (load / stiffness + np.cumsum(gaps)) / np.arange(1, gaps.size + 1)  # if m+1 nodes touch
+        upper = np.append(gaps[1:], np.inf)
+        m = int(np.argmax((approach >= gaps) & (approach <= upper)))
+        return float(approach[m])
+
+    def _finish(self, state: ContactState, rigid, control, t0) -> NormalResult:
+        pb = self.problem
+        pressure, active, gap = state.pressure, state.active, state.gap
+        self.active = active.copy()
+        self.forces = pressure.copy()
+        self.rigid = rigid.copy()
+        forces = pb.gather(pressure)
+        contact = pb.gather(active)
+        gaps = pb.gather(np.where(active, 0.0, gap))
+        moments = pb.allsum(np.array([pressure.sum(), pressure @ pb.y, pressure @ pb.x]))
+        load = float(moments[0])
+        s = pb.topography.spacing
+        if load > 0.0:
+            centroid = (pb.centroid[0] + moments[2] / load, pb.centroid[1] + moments[1] / load)
+        else:
+            centroid = (float("nan"), float("nan"))
+        n_contact = int(contact.sum())
+        return NormalResult(
+            force=pb.to_field(forces), pressure=pb.to_field(forces / s**2),
+            contact=pb.to_field(contact, False), gap=pb.to_field(gaps, np.nan),
+            load=load, moments=(float(moments[1]), float(moments[2])),
+            centroid=(float(centroid[0]), float(centroid[1])),
+            reference_point=(float(pb.centroid[0]), float(pb.centroid[1])),
+            closure=float(rigid[0]), rotation=(float(rigid[1]), float(rigid[2])),
+            contact_area=n_contact * s**2, nominal_area=pb.size * s**2,
+            outer_iterations=state.outer, linear_iterations=int(state.linear),
+            residual=float(state.residual), elapsed=time.perf_counter() - t0,
+            solver=self.description, control=control, operator=pb.operator_kind,
+            no_contact=n_contact == 0, full_contact=n_contact == pb.size,
+            residual_history=tuple(state.history))
+
+
+def _pair(name: str, value) -> tuple:
+    try:
+        a, b = value
+    except (TypeError, ValueError):
+        raise InputError(name, f"must be a pair (x, y), got {value!r}") from None
+    return a, b
+
+
+def make_solver(problem: NormalProblem, method: str = "ksp", **options) -> NormalSolver:
+    """A normal solver of ``problem`` by name: ``"ksp"``, ``"gauss-seidel"`` or ``"cg"``.
+
+    ``options`` go to the solver's constructor (settings, tolerances, PETSc
+    options and prefix).
+    """
+    if method in ("ksp", "gauss-seidel"):
+        from .active_set import ActiveSetSolver
+
+        return ActiveSetSolver(problem, method, **options)
+    if method == "cg":
+        from .constrained_cg import ConstrainedCGSolver
+
+        return ConstrainedCGSolver(problem, **options)
+    raise InputError("method", f"must be one of {', '.join(METHODS)}, got {method!r}")

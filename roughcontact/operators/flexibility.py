@@ -1,0 +1,196 @@
+"""The flexibility operator of one footprint: its PETSc Mat, full products, blocks on a contact set.
+
+Every solver sees H through a :class:`Flexibility`:
+
+- :attr:`Flexibility.mat`, a PETSc Mat on the communicator it was given:
+  the explicit MATDENSE (``kind = "dense"``, Eq. 10 rows) or a matrix-free
+  Python Mat (``"fft"``: the Eq. 10 kernel applied by a zero-padded FFT
+  convolution; ``"fft-periodic"``: the kernel summed over the images of a
+  periodic cell, :mod:`.periodic`);
+- :meth:`Flexibility.product`: H x over the whole footprint by FFT for
+  every kind (the same numbers as the dense product to round-off, at
+  O(N log N) instead of O(N²)), used for every gap evaluation;
+- :meth:`Flexibility.block`: H_SS on a contact set S for the Krylov inner
+  solves: an explicit matrix gathered from the Eq. 10 table when S is small
+  enough that its dense product is cheaper than an FFT, otherwise the
+  matrix-free restriction (zero outside S, full convolution, read on S);
+- :meth:`Flexibility.precondition`: the Fourier preconditioner of the
+  contact set, z_S = [C⁻¹ (g on S, 0 elsewhere)]_S with C the circulant of
+  the kernel wrapped on one period of the grid (:mod:`.preconditioner`).
+
+A user's own Mat is accepted with :meth:`Flexibility.from_mat`; products
+then use its ``mult`` and blocks its ``createSubMatrix``.
+"""
+from __future__ import annotations
+
+import numpy as np
+from petsc4py import PETSc
+
+from ..errors import InputError
+from .convolution import SlabConvolution
+from .kernel import kernel_block, punch_kernel
+from .layout import NodeLayout
+
+KINDS = ("dense", "fft", "fft-periodic")
+
+#: an explicit H_SS is used while |S|² ≤ EXPLICIT_RATIO · Lx · Ly (its dense product then
+#: costs less than one FFT product; see scripts/bench_operators.py) and it fits in
+#: EXPLICIT_BYTES per rank
+EXPLICIT_RATIO = 4.0
+EXPLICIT_BYTES = 256 * 2**20
+
+
+class Flexibility:
+    """H (Eqs. 9–11) over the footprint of a topography, distributed over ``comm``.
+
+    Parameters
+    ----------
+    topography
+        Composite topography (grid, spacing, footprint).
+    interface
+        The materials (composite compliance A, Eq. 4a).
+    comm
+        mpi4py communicator.
+    kind
+        ``"dense"``, ``"fft"`` or ``"fft-periodic"`` (the grid is one period
+        of a periodic surface; the footprint must be the whole grid).
+    workers
+        FFT threads per rank (default: the cores of the node shared by its ranks).
+    """
+
+    def __init__(self, topography, interface, comm, kind: str = "fft", workers: int | None = None):
+        if kind not in KINDS:
+            raise InputError("operator", f"must be one of {', '.join(KINDS)}, got {kind!r}")
+        self.kind = kind
+        self.comm = comm
+        self.periodic = kind == "fft-periodic"
+        footprint = topography.footprint
+        if self.periodic and not footprint.all():
+            raise InputError("operator", "'fft-periodic' needs the whole grid as footprint (one period "
+                                         "of a periodic surface); use 'fft' for a bounded footprint")
+        self.layout = NodeLayout.build(footprint, comm)
+        self.shape = footprint.shape
+        self.spacing = topography.spacing
+        self.compliance = interface.compliance
+        self.convolution = SlabConvolution(self.shape, comm, periodic=self.periodic, workers=workers)
+        if self.periodic:
+            from .periodic import periodic_kernel
+
+            self.kernel = periodic_kernel(self.shape, self.spacing, self.compliance)
+        else:
+            self.kernel = punch_kernel(self.shape, self.spacing, self.compliance)
+        self.convolution.set_kernel(self.kernel)
+        self.diagonal = float(self.kernel[0, 0])
+        self._preconditioner = None
+        self._slab = np.zeros((self.layout.rows[1] - self.layout.rows[0], self.shape[1]))
+        self._nodes = None
+        if kind == "dense":
+            from .dense import assemble_flexibility
+
+            self.mat = assemble_flexibility(self.kernel, self.layout, comm)
+        else:
+            from .fft import full_operator
+
+            self.mat = full_operator(self)
+
+    @classmethod
+    def from_mat(cls, mat: PETSc.Mat, topography, comm) -> "Flexibility":
+        """Wrap a user's Mat for H over the footprint (rows as :class:`~.layout.NodeLayout`)."""
+        self = cls.__new__(cls)
+        self.kind = f"user ({mat.getType()})"
+        self.comm = comm
+        self.periodic = False
+        self.layout = NodeLayout.build(topography.footprint, comm)
+        self.shape = topography.footprint.shape
+        self.spacing = topography.spacing
+        self.convolution = self.kernel = self._preconditioner = self._nodes = None
+        self._slab = None
+        self.mat = mat
+        rows = tuple(mat.getOwnershipRange())
+        if mat.getSize()[0] != self.layout.size or rows != (self.layout.start, self.layout.stop):
+            raise InputError("operator", f"has {mat.getSize()[0]} rows owned {rows} on this rank; the footprint "
+                                         f"has {self.layout.size} nodes owned "
+                                         f"({self.layout.start}, {self.layout.stop}) (blocks of grid rows)")
+        diagonal = mat.getDiagonal()
+        self.diagonal = float(diagonal.max()[1])
+        diagonal.destroy()
+        return self
+
+    # -------------------------------------------------------------- products
+    def product(self, values: np.ndarray) -> np.ndarray:
+        """H x on this rank's nodes, for x given on this rank's nodes (whole footprint)."""
+        if self.convolution is None:
+            x, y = self.mat.createVecs()
+            x.getArray()[:] = values
+            self.mat.mult(x, y)
+            out = y.getArray().copy()
+            x.destroy()
+            y.destroy()
+            return out
+        slab = self.layout.to_slab(values, out=self._slab)
+        return self.convolution.apply(slab)[self.layout.local_mask]
+
+    def precondition(self, values: np.ndarray, active: np.ndarray) -> np.ndarray:
+        """z = [C⁻¹ (values on S, 0 elsewhere)]_S, 0 off S: the Fourier preconditioner of H_SS."""
+        if self._preconditioner is None:
+            from .preconditioner import FourierPreconditioner
+
+            if self.convolution is None:
+                raise InputError("pc", "the Fourier preconditioner needs an operator built from a "
+                                       "topography ('dense', 'fft', 'fft-periodic'), not a user Mat")
+            self._preconditioner = FourierPreconditioner(self)
+        return self._preconditioner.apply(values, active)
+
+    # ---------------------------------------------------------------- blocks
+    def explicit_fits(self, count: int) -> bool:
+        """Whether an explicit H_SS of ``count`` nodes is cheaper than FFT products and fits."""
+        if self.kernel is None:
+            return True
+        lx, ly = self.convolution.lengths
+        per_rank = 8.0 * count * count / self.comm.Get_size()
+        return count * count <= EXPLICIT_RATIO * lx * ly and per_rank <= EXPLICIT_BYTES
+
+    def block(self, active: np.ndarray, explicit: bool | None = None) -> PETSc.Mat:
+        """H_SS for the contact set S (``active``: mask over this rank's nodes), a new Mat.
+
+        ``explicit`` forces an explicit (True) or matrix-free (False) block;
+        by default the cheaper one (:meth:`explicit_fits`).
+        """
+        count = int(self.comm.allreduce(int(active.sum())))
+        if self.kind == "dense" or self.kernel is None:
+            rows = (np.flatnonzero(active) + self.layout.start).astype(PETSc.IntType)
+            index_set = PETSc.IS().createGeneral(rows, comm=self.comm)
+            sub = self.mat.createSubMatrix(index_set, index_set)
+            index_set.destroy()
+            return sub
+        if explicit is None:
+            explicit = self.explicit_fits(count)
+        if explicit:
+            return self._explicit_block(active, count)
+        from .fft import restricted_operator
+
+        return restricted_operator(self, active)
+
+    def _explicit_block(self, active: np.ndarray, count: int) -> PETSc.Mat:
+        """H_SS gathered from the kernel table, row-distributed MATDENSE (C-ordered columns)."""
+        if self._nodes is None:
+            self._nodes = self.layout.nodes()
+        local_nodes = self._nodes[self.layout.start:self.layout.stop][active]
+        all_nodes = np.concatenate(self.comm.allgather(local_nodes))
+        # H_SS is symmetric: row j of this C-ordered array is column j of the local rows
+        columns = kernel_block(self.kernel, all_nodes, local_nodes, periodic_shape=self._period())
+        local = local_nodes.shape[0]
+        mat = PETSc.Mat().createDense(((local, count), (local, count)), array=columns.T, comm=self.comm)
+        mat.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+        mat.setOption(PETSc.Mat.Option.SPD, True)
+        mat.assemble()
+        return mat
+
+    def _period(self):
+        return self.shape if self.periodic else None
+
+    def destroy(self) -> None:
+        """Free the PETSc Mat (collective)."""
+        if self.mat is not None:
+            self.mat.destroy()
+        self.mat = None

@@ -1,0 +1,76 @@
+"""Which footprint nodes each rank owns: the nodes of its block of grid rows.
+
+The unknowns of every operator are the footprint nodes in C order of the
+mask (``numpy.argwhere(footprint)``). Rank r owns the nodes of grid rows
+[row_start, row_stop) given by :func:`~.convolution.split` (nx, ranks): a
+contiguous range of unknowns, and exactly the rows of the slab that the FFT
+convolution transforms on that rank, so a distributed vector maps to the
+rank's slab of the grid without communication. Both operators use this
+layout, so results do not depend on which operator solved them.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .convolution import split
+
+
+@dataclass(frozen=True)
+class NodeLayout:
+    """This rank's share of the footprint nodes.
+
+    Attributes
+    ----------
+    footprint
+        (nx, ny) boolean mask of all nodes.
+    rows
+        (row_start, row_stop): the grid rows of this rank.
+    start, stop
+        Global indices of the owned unknowns.
+    size
+        Number of footprint nodes (all ranks).
+    """
+
+    footprint: np.ndarray
+    rows: tuple[int, int]
+    start: int
+    stop: int
+    size: int
+
+    @classmethod
+    def build(cls, footprint: np.ndarray, comm) -> "NodeLayout":
+        footprint = np.asarray(footprint, dtype=bool)
+        r0, r1 = split(footprint.shape[0], comm.Get_size())[comm.Get_rank()]
+        per_row = footprint.sum(axis=1)
+        start = int(per_row[:r0].sum())
+        return cls(footprint=footprint, rows=(r0, r1), start=start,
+                   stop=start + int(per_row[r0:r1].sum()), size=int(per_row.sum()))
+
+    @property
+    def local_size(self) -> int:
+        return self.stop - self.start
+
+    @property
+    def local_mask(self) -> np.ndarray:
+        """The footprint on this rank's rows, (rows, ny)."""
+        return self.footprint[self.rows[0]:self.rows[1]]
+
+    def to_slab(self, values: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """This rank's rows of the grid with ``values`` (owned nodes) on the footprint, 0 elsewhere."""
+        mask = self.local_mask
+        if out is None:
+            out = np.zeros(mask.shape)
+        else:
+            out.fill(0.0)
+        out[mask] = values
+        return out
+
+    def from_slab(self, slab: np.ndarray) -> np.ndarray:
+        """The owned nodes' values of a slab field."""
+        return slab[self.local_mask]
+
+    def nodes(self) -> np.ndarray:
+        """(i, j) grid indices of all footprint nodes, in the order of the unknowns."""
+        return np.argwhere(self.footprint)

@@ -1,8 +1,13 @@
-"""Command line: ``roughcontact run [STUDY.toml] [--output DIR] [PETSc options]``.
+"""Command line: ``roughcontact run [STUDY.toml] [--output DIR] [--quiet] [PETSc options]``.
 
-Run under MPI as ``mpiexec -n 2 python -m roughcontact run``. Options that
+Run under MPI as ``mpiexec -n 4 python -m roughcontact run study.toml``: the
+tasks of the study are spread over the ranks (docs/studies.md). Options that
 start with a single dash (``-normal_ksp_monitor``, ``-log_view``) go to
 PETSc's options database, as do all arguments after ``--``.
+
+Exit status: 0 when every task completed, 1 when some failed (recorded in
+the results), 2 for bad input, 70 when an unexpected error on some rank
+aborted the job (run the same command again to resume).
 """
 from __future__ import annotations
 
@@ -33,34 +38,100 @@ def split_petsc_args(argv: list[str]) -> tuple[list[str], list[str]]:
     return own, petsc
 
 
+def misplaced_options(petsc: list[str], parser: argparse.ArgumentParser) -> dict[str, str]:
+    """PETSc options that look like the program's own (``-output`` for ``--output``), with a warning each."""
+    own = {option for action in _all_actions(parser) for option in action.option_strings if option.startswith("--")}
+    out = {}
+    for token in petsc:
+        spelled = "--" + token[1:].replace("_", "-")
+        if token.startswith("-") and not token.startswith("--") and spelled in own:
+            out[token[1:]] = f"{token} (one dash) was passed to PETSc as an option; did you mean {spelled}?"
+    return out
+
+
+def _run_parser(sub) -> None:
+    run = sub.add_parser("run", help="run a study (default: the built-in fractal ensemble)",
+                         description="Run every task of a study not already in --output, then combine them.")
+    run.add_argument("study", nargs="?", help="TOML study file (default: built-in)")
+    run.add_argument("--output", default="results", help="output directory (default: results)")
+    run.add_argument("--quiet", action="store_true", help="no progress line")
+    run.add_argument("--ranks-per-task", type=int, default=None, metavar="K",
+                     help="ranks solving each task (default: the study's [farm] ranks_per_task, else 1)")
+    run.add_argument("--retry-failed", action="store_true", help="solve again the tasks recorded as failed")
+    run.set_defaults(handler=_run)
+
+
+def _run(args, comm) -> int:
+    from .farm import load_study, run_study
+
+    study = load_study(args.study)
+    summary = run_study(study, comm, args.output, quiet=args.quiet, retry_failed=args.retry_failed,
+                        ranks_per_task=args.ranks_per_task)
+    if comm.Get_rank() == 0 and summary.solved_here:
+        for option in _unused_petsc_options(args.misplaced):
+            _warn(f"PETSc option -{option} was not used by any solver of this run "
+                  "(misspelt, or for a solver the study does not run)")
+    return summary.exit_code
+
+
+#: the subcommands: each adds its parser (with ``handler(args, comm) -> exit status``) to ``sub``
+SUBCOMMANDS = (_run_parser,)
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     own, petsc = split_petsc_args(argv)
     parser = argparse.ArgumentParser(prog="roughcontact", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
-    run = sub.add_parser("run", help="run a study (default: the built-in fractal load sweep)")
-    run.add_argument("study", nargs="?", help="TOML study file (default: built-in)")
-    run.add_argument("--output", default="results", help="output directory (default: results)")
+    for add in SUBCOMMANDS:
+        add(sub)
     args = parser.parse_args(own)
 
+    from mpi4py import MPI       # first: MPI with threads (the farm's executor runs a manager thread)
     import petsc4py
 
     petsc4py.init([sys.argv[0]] + petsc)
-    from mpi4py import MPI
 
-    from .driver import run_normal_study
     from .errors import RoughContactError
-    from .study import load_study
+    from .farm.executor import abort
 
     comm = MPI.COMM_WORLD
+    args.misplaced = misplaced_options(petsc, parser)
+    if comm.Get_rank() == 0:
+        for warning in args.misplaced.values():
+            _warn(warning)
     try:
-        study = load_study(args.study)
-        run_normal_study(study, comm, args.output)
-    except RoughContactError as exc:
+        return args.handler(args, comm)
+    except RoughContactError as exc:      # raised on every rank by the checks
         if comm.Get_rank() == 0:
             print(f"roughcontact: error: {exc}", file=sys.stderr)
         return 2
-    return 0
+    except BaseException:
+        if comm.Get_size() == 1:
+            raise
+        import traceback
+
+        abort(comm, f"roughcontact: rank {comm.Get_rank()} of {comm.Get_size()}: {traceback.format_exc()}")
+        raise
+
+
+def _all_actions(parser: argparse.ArgumentParser):
+    for action in parser._actions:
+        yield action
+        for child in getattr(action, "choices", None) or {}:
+            if isinstance(action.choices, dict):
+                yield from _all_actions(action.choices[child])
+
+
+def _unused_petsc_options(already_warned) -> list[str]:
+    from petsc4py import PETSc
+
+    options = PETSc.Options()
+    return [name for name in options.getAll() if not options.used(name) and name not in already_warned]
+
+
+def _warn(message: str) -> None:
+    print(f"roughcontact: warning: {message}", file=sys.stderr)
 
 
 if __name__ == "__main__":

@@ -16,11 +16,12 @@ import numpy as np
 import xarray as xr
 
 from . import __version__
+from .errors import InputError
 from .normal.result import NormalResult
 
 _SCALARS = {
     # name: (getter, units, long_name)
-    "load": (lambda r: r.load, "N", "normal load P (Eq. 8)"),
+    "normal_load": (lambda r: r.load, "N", "normal load P (Eq. 8)"),
     "closure": (lambda r: r.closure, "m", "normal approach δz (Eq. 7)"),
     "rotation_x": (lambda r: r.rotation[0], "rad", "rotation θx (Eq. 7)"),
     "rotation_y": (lambda r: r.rotation[1], "rad", "rotation θy (Eq. 7)"),
@@ -52,24 +53,58 @@ def grid_coords(shape: tuple[int, int], spacing: float) -> dict:
             "y": ("y", np.arange(shape[1]) * spacing, {"units": "m", "long_name": "y"})}
 
 
+#: what a sweep stores on the grid besides its scalars: nothing, the contact sets, or every field
+FIELDS = ("none", "contact", "all")
+
+_FIELDS = {
+    # name: (getter, dtype, units, long_name, stored with)
+    "force": (lambda r: r.force, np.float64, "N", "nodal contact force p̄ (Eq. 9)", "all"),
+    "pressure": (lambda r: r.pressure, np.float64, "Pa", "contact pressure p̄ / s²", "all"),
+    "gap": (lambda r: r.gap, np.float64, "m", "deformed gap g = H p − w (Eq. 7; NaN off the footprint)", "all"),
+    "contact": (lambda r: r.contact, np.int8, "1", "contact set S", "contact"),
+}
+
+
+def check_fields(fields: str, parameter: str = "fields") -> str:
+    """``fields`` if it is one of :data:`FIELDS`, else :class:`InputError` naming ``parameter``."""
+    if fields not in FIELDS:
+        raise InputError(parameter, f"must be one of {', '.join(repr(f) for f in FIELDS)}, got {fields!r}")
+    return fields
+
+
+def stored_fields(table: dict, fields: str) -> list[str]:
+    """The names of a field table (values ending in the level they belong to) kept at ``fields``."""
+    check_fields(fields)
+    keep = {"none": (), "contact": ("contact",), "all": ("contact", "all")}[fields]
+    return [name for name, spec in table.items() if spec[-1] in keep]
+
+
 def normal_sweep_dataset(results: Sequence[NormalResult], spacing: float, dim: str = "step",
-                         fields: bool = True, attrs: dict | None = None) -> xr.Dataset:
+                         coordinate: tuple | None = None, fields: str = "all",
+                         attrs: dict | None = None) -> xr.Dataset:
     """One dataset of a sweep of normal solves along ``dim``.
 
-    With ``fields`` the nodal force, pressure and contact mask are stored on
-    (dim, x, y).
+    ``coordinate`` is the ``(values, attrs)`` of ``dim`` (default: the index of
+    the solve); a scalar of the same name is then left out, so a sweep along
+    ``dim="normal_load"`` is labelled by the imposed loads, not by the solved
+    ones (equal to ``load_tol``). ``fields`` (:data:`FIELDS`) chooses what is
+    stored on (dim, x, y): nothing, the contact set S, or also the nodal force,
+    the pressure and the deformed gap.
     """
     n = len(results)
     data = scalar_variables(results, _SCALARS, dim)
-    coords = {dim: (dim, np.arange(n), {"long_name": "index of the solve in the sweep"})}
-    if fields and n:
+    if coordinate is None:
+        coords = {dim: (dim, np.arange(n), {"long_name": "index of the solve in the sweep"})}
+    else:
+        data.pop(dim, None)
+        coords = {dim: (dim, np.asarray(coordinate[0])[:n], dict(coordinate[1]))}
+    names = stored_fields(_FIELDS, fields)
+    if names and n:
         coords.update(grid_coords(results[0].force.shape, spacing))
-        data["force"] = ((dim, "x", "y"), np.stack([r.force for r in results]),
-                         {"units": "N", "long_name": "nodal contact force p̄ (Eq. 9)"})
-        data["pressure"] = ((dim, "x", "y"), np.stack([r.pressure for r in results]),
-                            {"units": "Pa", "long_name": "contact pressure p̄ / s²"})
-        data["contact"] = ((dim, "x", "y"), np.stack([r.contact for r in results]).astype(np.int8),
-                           {"units": "1", "long_name": "contact set S"})
+    for name in names if n else ():
+        get, dtype, units, long_name, _ = _FIELDS[name]
+        data[name] = ((dim, "x", "y"), np.stack([get(r) for r in results]).astype(dtype),
+                      {"units": units, "long_name": long_name})
     ds = xr.Dataset(data, coords=coords)
     ds.attrs.update({"roughcontact_version": __version__, "spacing": spacing,
                      "solver": results[0].solver if n else "", "control": results[0].control if n else ""})

@@ -1,13 +1,14 @@
-"""Study definitions and the main job: input validation, surfaces, NetCDF round trip."""
+"""Study definitions and the main job: input validation, surfaces, guards, the command line."""
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 import pytest
 import xarray as xr
 
-from roughcontact.driver import run_normal_study
 from roughcontact.errors import InputError
-from roughcontact.study import DEFAULT_STUDY, load_study
+from roughcontact.farm import DEFAULT_STUDY, load_study, run_study
 
 TINY = {
     "name": "tiny",
@@ -15,36 +16,47 @@ TINY = {
                 "rms_height": 1e-5, "seed": 2},
     "materials": {"body1": {"E": 20e9, "nu": 0.2}},
     "normal": {"loads": [5.0, 10.0, 20.0]},
+    "output": {"fields": "all"},
 }
+ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture
 def shared_dir(tmp_path, comm):
     """One directory for all ranks (rank 0's), since rank 0 writes the files."""
-    from pathlib import Path
-
     return Path(comm.bcast(str(tmp_path), root=0))
 
 
-def test_main_job_writes_netcdf_and_plot(comm, shared_dir):
+def test_single_surface_study_is_a_one_task_ensemble(comm, shared_dir):
+    """A study without axes is one task: its dataset has no study dimension, loads are the
+    ``normal_load`` coordinate, and the fields, attributes and figure are there."""
     study = load_study(TINY)
-    paths = run_normal_study(study, comm, shared_dir, log=lambda *a: None)
-    comm.Barrier()
-    with xr.open_dataset(paths["netcdf"], engine="h5netcdf") as ds:
-        # equilibrium: the solved load is the imposed one (relative 1e-9, solver tolerance)
-        np.testing.assert_allclose(ds["load"].values, TINY["normal"]["loads"], rtol=1e-9)
-        np.testing.assert_allclose(ds["force"].sum(("x", "y")).values, TINY["normal"]["loads"], rtol=1e-9)
-        assert ds["load"].attrs["units"] == "N"
+    assert study.shape == () and len(study.tasks()) == 1
+    summary = run_study(study, comm, shared_dir, log=lambda *a: None, quiet=True)
+    assert summary.exit_code == 0
+    with xr.open_dataset(summary.paths["netcdf"], engine="h5netcdf") as ds:
+        assert dict(ds.sizes) == {"normal_load": 3, "x": 17, "y": 17}
+        np.testing.assert_array_equal(ds["normal_load"], TINY["normal"]["loads"])
+        # equilibrium: Σ p̄ = P (relative 1e-9: the load-control tolerance is 1e-8, reached ~1e-13)
+        np.testing.assert_allclose(ds["force"].sum(("x", "y")), TINY["normal"]["loads"], rtol=1e-9)
+        assert ds["contact"].dtype == np.int8
+        assert ds["normal_load"].attrs["units"] == "N" and ds["mean_pressure"].attrs["units"] == "Pa"
         assert ds.attrs["dundurs_beta"] == pytest.approx(0.5 * (1 - 2 * 0.2) / (1 - 0.2))
+        assert ds.attrs["study"] == "tiny" and ds.attrs["mpi_ranks"] == comm.Get_size()
         assert np.all(np.diff(ds["contact_fraction"].values) > 0)
-    assert paths["figure"].stat().st_size > 1000
+        assert np.isnan(ds["gap"].values).sum() == 0   # the footprint is the whole grid
+    assert summary.paths["figure"].stat().st_size > 1000
 
 
-def test_default_study_is_valid():
+def test_default_study_is_the_ensemble_of_its_file():
+    """The built-in default is studies/fractal_ensemble.toml: the same definition, 3 Δ × 8 seeds."""
     study = load_study(None)
     assert study.name == DEFAULT_STUDY["name"]
-    assert study.topography().shape == (65, 65)
+    assert study.shape == (3, 8) and [d.name for d in study.dimensions] == ["fractal_dimension", "seed"]
+    assert study.tasks()[0].topography().shape == (65, 65)
     assert study.interface.normal_uncoupled_exact
+    assert load_study(ROOT / "studies" / "fractal_ensemble.toml").identity == study.identity
+    assert len(load_study(ROOT / "studies" / "fractal_load_sweep.toml").tasks()) == 1
 
 
 def test_study_file_with_measured_surface_shift_and_disc(tmp_path):
@@ -65,7 +77,7 @@ body1 = { E = 20e9, nu = 0.2 }
 [normal]
 loads = [1.0]
 ''')
-    topo = load_study(tmp_path / "joint.toml").topography()
+    topo = load_study(tmp_path / "joint.toml").tasks()[0].topography()
     face = np.load(tmp_path / "face.npy")
     assert topo.spacing == pytest.approx(1e-4)
     # footprint: the lens of two 30-node-diameter discs 2 nodes apart (~ π 15² − 2·30 nodes)
@@ -78,11 +90,34 @@ loads = [1.0]
 @pytest.mark.parametrize("change, parameter", [
     ({"surface": {"generator": "midpoint", "levls": 4}}, "surface.levls"),
     ({"surface": {"generator": "spline"}}, "surface.generator"),
+    ({"surface": {**TINY["surface"], "spacing": "1e-4"}}, "surface.spacing"),
+    ({"surface": {**TINY["surface"], "levels": 4.0}}, "surface.levels"),
+    ({"surface": {**TINY["surface"], "fractal_dimension": 3.4}}, "surface.fractal_dimension"),
+    ({"surface": {"generator": "midpoint", "levels": 4}}, "surface.fractal_dimension"),
     ({"materials": {"body1": {"E": -1.0, "nu": 0.2}}}, "materials.body1.E"),
+    ({"materials": {"body1": {"E": "20e9", "nu": 0.2}}}, "materials.body1.E"),
     ({"materials": {"body1": {"E": 1e9}}}, "materials.body1.nu"),
+    ({"materials": {"body1": 5}}, "materials.body1"),
     ({"normal": {"loads": [3.0, 1.0]}}, "normal.loads"),
     ({"normal": {"loads": []}}, "normal.loads"),
+    ({"normal": {"loads": ["abc"]}}, "normal.loads"),
+    ({"normal": {"loads": [1.0], "pressures": [1e5]}}, "normal.loads"),
+    ({"normal": {"loads": [1.0], "method": "jacobi"}}, "normal.method"),
+    ({"normal": {"loads": [1.0], "operator": "sparse"}}, "normal.operator"),
     ({"solver": {}}, "study.solver"),
+    ({"name": "../elsewhere"}, "name"),
+    ({"name": ".hidden"}, "name"),
+    ({"axes": {"seed": []}}, "axes.seed"),
+    ({"axes": {"seeds": 3, "seed": [1]}}, "axes.seeds"),
+    ({"axes": {"fractal_dimension": [2.1, 3.2]}}, "axes.fractal_dimension[1]"),
+    ({"axes": {"colour": [1, 2]}}, "axes.colour"),
+    ({"axes": {"levels": [3, 4], "spacing": [1e-4], "zip": ["levels", "spacing"]}}, "axes.zip"),
+    ({"axes": {"seed": [1, 2]}}, "axes.seed"),       # also fixed in [surface]
+    ({"tangential": {"friction": 0.5, "at": [7.0]}}, "tangential.at"),
+    ({"tangential": {"friction": 0.5, "fretting_amplitude": 1.0}}, "tangential.fretting_amplitude"),
+    ({"tangential": {"steps": 3}}, "tangential.friction"),
+    ({"output": {"fields": "some"}}, "output.fields"),
+    ({"farm": {"ranks_per_task": 0}}, "farm.ranks_per_task"),
 ])
 def test_bad_study_names_the_key(change, parameter):
     raw = {**TINY, **change}
@@ -101,29 +136,23 @@ def test_missing_or_broken_study_file(tmp_path):
     assert info.value.parameter == "study"
 
 
-def test_failed_sweep_keeps_the_solved_loads(comm, shared_dir, monkeypatch):
-    """A solver failure mid-sweep keeps the loads already solved, with the reason, and
-    re-raises; no complete-looking file is written."""
-    from roughcontact.errors import ConvergenceError
-    from roughcontact.normal import ActiveSetSolver
+def test_operator_too_large_for_memory_is_refused_before_any_solve(comm, shared_dir):
+    """(2^13 + 1)² nodes: a dense H of 36 PB. Refused with the ways out, before any surface is
+    built, and nothing written."""
+    study = load_study({**TINY, "surface": {**TINY["surface"], "levels": 13}})
+    with pytest.raises(InputError, match="ranks_per_task.*coarser grid") as info:
+        run_study(study, comm, shared_dir, log=lambda *a: None)
+    assert info.value.parameter == "surface"
+    assert not (shared_dir / "tiny.tasks").exists()     # not claimed: a corrected study may use the name
 
-    solve_load = ActiveSetSolver.solve_load
-    third = TINY["normal"]["loads"][2]
 
-    def fail_at_third(self, load, *args, **kwargs):   # same decision on every rank
-        if load == third:
-            raise ConvergenceError("ACTIVE_SET_MAX_ITERATIONS", "forced for the test")
-        return solve_load(self, load, *args, **kwargs)
-
-    monkeypatch.setattr(ActiveSetSolver, "solve_load", fail_at_third)
-    with pytest.raises(ConvergenceError):
-        run_normal_study(load_study(TINY), comm, shared_dir, log=lambda *a: None)
+def test_output_that_cannot_be_written_is_refused_first(comm, shared_dir):
+    if comm.Get_rank() == 0:
+        (shared_dir / "a-file").write_text("not a directory")
     comm.Barrier()
-    with xr.open_dataset(shared_dir / "tiny.partial.nc", engine="h5netcdf") as ds:
-        assert ds.sizes["step"] == 2
-        np.testing.assert_allclose(ds["load"].values, TINY["normal"]["loads"][:2], rtol=1e-9)
-        assert "stopped at load 20 N" in ds.attrs["incomplete"]
-    assert not (shared_dir / "tiny.nc").exists()
+    with pytest.raises(InputError) as info:
+        run_study(load_study(TINY), comm, shared_dir / "a-file" / "results", log=lambda *a: None)
+    assert info.value.parameter == "--output"
 
 
 def test_command_line_reports_bad_study(tmp_path, comm):
@@ -139,6 +168,27 @@ def test_command_line_reports_bad_study(tmp_path, comm):
                           "--output", str(tmp_path)], capture_output=True, text=True, timeout=120)
     assert run.returncode == 2, run.stderr
     assert "fractal_dimension" in run.stderr and "Traceback" not in run.stderr
+    assert len(run.stderr.strip().splitlines()) == 1
+
+
+def test_command_line_warns_about_options_meant_for_it(tmp_path, comm):
+    """``-output x`` (one dash) goes to PETSc; the run says so, and names a misspelt PETSc option
+    no solver read. The study still runs, into the default directory."""
+    import subprocess
+    import sys
+
+    if comm.Get_size() > 1:
+        pytest.skip("spawns a serial interpreter; run by the serial pass")
+    (tmp_path / "tiny.toml").write_text('name = "tiny"\n[surface]\nlevels = 3\nfractal_dimension = 2.3\n'
+                                        'spacing = 1e-4\nrms_height = 1e-5\n[materials]\n'
+                                        'body1 = { E = 20e9, nu = 0.2 }\n[normal]\nloads = [1.0]\n')
+    run = subprocess.run([sys.executable, "-m", "roughcontact", "run", str(tmp_path / "tiny.toml"), "-output",
+                          "elsewhere", "-normal_ksp_typo", "cg"], capture_output=True, text=True, timeout=120,
+                         cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    assert "-output (one dash) was passed to PETSc" in run.stderr and "did you mean --output" in run.stderr
+    assert "-normal_ksp_typo was not used" in run.stderr
+    assert (tmp_path / "results" / "tiny.nc").exists()
 
 
 def test_petsc_options_are_split_from_program_arguments():

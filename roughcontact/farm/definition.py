@@ -1,0 +1,259 @@
+"""Study definitions: what to solve, read from TOML files (see ``studies/`` and docs/studies.md).
+
+A study names a surface, the two materials and the loading, and the
+**axes** it varies; their product (or zip) is the list of tasks. A study
+without axes is one task. Everything is validated before any solve:
+unknown keys, wrong kinds of values and empty axes are :class:`InputError` s
+naming the key, so a typo never silently falls back to a default.
+
+Example (the built-in default, also ``studies/fractal_ensemble.toml``)::
+
+    name = "fractal-ensemble"
+    [surface]
+    generator = "midpoint"          # random midpoint displacement (§3.3)
+    levels = 6                      # 65 x 65 nodes
+    spacing = 1e-4                  # m
+    rms_height = 1e-5               # m
+    [axes]
+    fractal_dimension = [2.1, 2.3, 2.5]
+    seeds = 8                       # seed = 1 … 8
+    [materials]
+    body1 = { E = 20e9, nu = 0.2 }
+    body2 = { E = 20e9, nu = 0.2 }  # omit for a rigid flat
+    [normal]
+    loads = [25.0, 68.2, ...]       # N, increasing; or pressures = [...] (Pa, σ0 = P/A0)
+    [output]
+    fields = "all"                  # "none" | "contact" | "all"
+"""
+from __future__ import annotations
+
+import hashlib
+import inspect
+import json
+import re
+import tomllib
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..datasets import check_fields
+from ..errors import InputError
+from ..materials import Interface, Material
+from . import schema
+from .axes import Dimension, check_value, parse_axes, positions
+from .task import NormalOptions, TangentialOptions, Task, generators
+
+DEFAULT_STUDY: dict[str, Any] = {
+    "name": "fractal-ensemble",
+    "description": "normal-contact load sweeps of random-midpoint-displacement surfaces, "
+                   "Delta = 2.1, 2.3, 2.5 x 8 seeds, between two sandstone-like half-spaces (Fig. 5a)",
+    "surface": {"generator": "midpoint", "levels": 6, "spacing": 1e-4, "rms_height": 1e-5},
+    "axes": {"fractal_dimension": [2.1, 2.3, 2.5], "seeds": 8},
+    "materials": {"body1": {"E": 20e9, "nu": 0.2}, "body2": {"E": 20e9, "nu": 0.2}},
+    "normal": {"loads": [round(float(p), 1) for p in np.linspace(25.0, 500.0, 12)], "method": "ksp"},
+    "output": {"fields": "all"},
+}
+
+#: keys every surface table accepts besides its generator's own arguments
+COMMON_SURFACE_KEYS = {"generator", "detrend", "mate_shift", "footprint_diameter", "coarsening"}
+_TABLES = {"name", "description", "surface", "axes", "materials", "normal", "tangential", "output", "farm"}
+_SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
+
+
+@dataclass(frozen=True)
+class Study:
+    """A validated study definition: the tasks, how they are solved and what is stored."""
+
+    name: str
+    surface: dict[str, Any]
+    dimensions: tuple[Dimension, ...]
+    interface: Interface | None
+    loads: tuple[float, ...]
+    load_dim: str = "normal_load"
+    normal: NormalOptions = field(default_factory=NormalOptions)
+    tangential: TangentialOptions | None = None
+    fields: str = "contact"
+    ranks_per_task: int = 1
+    description: str = ""
+    text: str = ""
+    definition: str = ""
+    base_dir: Path | None = None
+
+    @property
+    def identity(self) -> str:
+        """SHA-256 of :attr:`definition`: equal identities give equal results."""
+        return hashlib.sha256(self.definition.encode()).hexdigest()
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """Sizes of the study dimensions (empty for a one-task study)."""
+        return tuple(d.size for d in self.dimensions)
+
+    def tasks(self) -> list[Task]:
+        """Every task, in row-major order of the dimensions (the task number is the position)."""
+        out = []
+        for index, (position, values) in enumerate(positions(self.dimensions)):
+            surface = {**self.surface, **{k: v for k, v in values.items() if k != "materials"}}
+            if surface["generator"] == "file" and self.base_dir is not None:
+                surface["path"] = str(self.base_dir / surface["path"])
+            out.append(Task(index=index, position=position, labels=values, surface=surface,
+                            interface=values.get("materials", self.interface), loads=self.loads,
+                            load_dim=self.load_dim, normal=self.normal, tangential=self.tangential,
+                            fields=self.fields))
+        return out
+
+
+def load_study(source: str | Path | dict | None = None) -> Study:
+    """A :class:`Study` from a TOML path, a dict, or the built-in default (None)."""
+    base_dir, text = None, ""
+    if source is None:
+        raw = DEFAULT_STUDY
+    elif isinstance(source, dict):
+        raw = source
+    else:
+        path = Path(source)
+        base_dir = path.resolve().parent
+        if not path.is_file():
+            raise InputError("study", f"no study file at {path}")
+        try:
+            text = path.read_text()
+            raw = tomllib.loads(text)
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+            raise InputError("study", f"{path} is not valid TOML: {exc}") from None
+    schema.only(raw, _TABLES, "study")
+    name = schema.string("name", raw.get("name", "study"))
+    if not _SAFE_NAME.match(name):
+        raise InputError("name", f"must be a plain file name (letters, digits, '.', '_', '-'; no path "
+                                 f"and not starting with '.'), so results stay inside --output; got {name!r}")
+    surface, function = _surface(schema.section(raw, "surface"))
+    axis_keys = (_parameters(function) | COMMON_SURFACE_KEYS) - {"generator"}
+    axes_table = schema.section(raw, "axes")
+    dimensions = parse_axes(axes_table, axis_keys,
+                            lambda where, key, value: schema.surface_value(where, key, value, function),
+                            parse_interface)
+    varied = {a.key for d in dimensions for a in d.axes}
+    clash = sorted(varied & set(surface))
+    if clash:
+        raise InputError(f"axes.{clash[0]}", "is also given in [surface]; give it in one place")
+    missing = [name for name, p in inspect.signature(function).parameters.items()
+               if p.default is inspect.Parameter.empty and name not in set(surface) | varied]
+    if missing:
+        raise InputError(f"surface.{missing[0]}", f"is required by the {surface['generator']!r} generator "
+                                                  "(give it in [surface] or as an axis)")
+    interface = _materials(raw, "materials" in varied)
+    loads, load_dim, normal = _normal(schema.section(raw, "normal"))
+    tangential = _tangential(schema.section(raw, "tangential"), loads, load_dim)
+    output = schema.section(raw, "output")
+    schema.only(output, {"fields"}, "output")
+    fields = check_fields(schema.string("output.fields", output.get("fields", "contact")), "output.fields")
+    farm = schema.section(raw, "farm")
+    schema.only(farm, {"ranks_per_task"}, "farm")
+    ranks = schema.integer("farm.ranks_per_task", farm.get("ranks_per_task", 1), minimum=1)
+    study = Study(name=name, surface=surface, dimensions=dimensions, interface=interface, loads=loads,
+                  load_dim=load_dim, normal=normal, tangential=tangential, fields=fields, ranks_per_task=ranks,
+                  description=schema.string("description", raw.get("description", "")),
+                  text=text or json.dumps(raw, indent=1, default=str), base_dir=base_dir)
+    return replace(study, definition=_definition(raw, study))
+
+
+def parse_interface(where: str, spec) -> Interface:
+    """The two bodies of a ``{body1 = {E, nu}, body2 = …}`` table (body2 absent: a rigid flat)."""
+    if not isinstance(spec, dict):
+        raise InputError(where, f"must be a table of body1 (and body2), got {spec!r}")
+    schema.only(spec, {"body1", "body2"}, where)
+    bodies = []
+    for name in ("body1", "body2"):
+        body = spec.get(name)
+        if body is None:
+            if name == "body1":
+                raise InputError(f"{where}.body1", "is required")
+            bodies.append(Material.rigid())
+            continue
+        if not isinstance(body, dict):
+            raise InputError(f"{where}.{name}", f"must be a table {{ E = …, nu = … }}, got {body!r}")
+        schema.only(body, {"E", "nu"}, f"{where}.{name}")
+        for key in ("E", "nu"):
+            if key not in body:
+                raise InputError(f"{where}.{name}.{key}", "is required")
+            schema.number(f"{where}.{name}.{key}", body[key])
+        try:
+            bodies.append(Material(body["E"], body["nu"]))
+        except InputError as exc:
+            raise InputError(f"{where}.{name}.{exc.parameter}", str(exc).split(": ", 1)[1]) from None
+    return Interface(bodies[0], bodies[1])
+
+
+def _surface(table: dict):
+    surface = dict(table)
+    generator = schema.string("surface.generator", surface.get("generator", "midpoint"))
+    functions = generators()
+    if generator not in functions:
+        raise InputError("surface.generator", f"must be one of {sorted(functions)}, got {generator!r}")
+    surface["generator"] = generator
+    function = functions[generator]
+    schema.only(surface, _parameters(function) | COMMON_SURFACE_KEYS, "surface")
+    for key, value in surface.items():
+        if key != "generator":
+            schema.surface_value(f"surface.{key}", key, value, function)
+            check_value(f"surface.{key}", key, value)
+    return surface, function
+
+
+def _materials(raw: dict, varied: bool) -> Interface | None:
+    if varied:
+        if "materials" in raw:
+            raise InputError("axes.materials", "is also given as [materials]; give it in one place")
+        return None
+    return parse_interface("materials", schema.section(raw, "materials"))
+
+
+def _normal(table: dict):
+    schema.only(table, {"loads", "pressures", "method", "operator"}, "normal")
+    if ("loads" in table) == ("pressures" in table):
+        raise InputError("normal.loads", "give either loads (P in N) or pressures (σ0 = P/A0 in Pa), not both")
+    key = "loads" if "loads" in table else "pressures"
+    values = schema.increasing_numbers(f"normal.{key}", table[key], "N" if key == "loads" else "Pa")
+    options = NormalOptions(operator=schema.string("normal.operator", table.get("operator", "dense")),
+                            method=schema.string("normal.method", table.get("method", "ksp")))
+    return values, "normal_load" if key == "loads" else "mean_pressure", options
+
+
+def _tangential(table: dict, loads: tuple[float, ...], load_dim: str) -> TangentialOptions | None:
+    if not table:
+        return None
+    schema.only(table, {"friction", "steps", "at", "fretting_amplitude", "fretting_steps"}, "tangential")
+    if "friction" not in table:
+        raise InputError("tangential.friction", "is required (the Coulomb coefficient f)")
+    friction = schema.number("tangential.friction", table["friction"], positive=True)
+    steps = schema.integer("tangential.steps", table.get("steps", 10), minimum=1)
+    at = table.get("at", [p for p in loads if p > 0])
+    indices = []
+    for value in schema.array("tangential.at", at):
+        schema.number("tangential.at", value)
+        if value not in loads:
+            raise InputError("tangential.at", f"{value!r} is not one of the study's {load_dim} values")
+        if value == 0:
+            raise InputError("tangential.at", "a tangential load needs P > 0 (fP is the limit of Q)")
+        indices.append(loads.index(value))
+    amplitude = table.get("fretting_amplitude")
+    if amplitude is not None:
+        amplitude = schema.number("tangential.fretting_amplitude", amplitude, positive=True)
+        if amplitude >= 1.0:
+            raise InputError("tangential.fretting_amplitude", f"is Q*/(fP) and must lie in (0, 1), got {amplitude!r}")
+    fretting_steps = schema.integer("tangential.fretting_steps", table.get("fretting_steps", steps), minimum=1)
+    return TangentialOptions(friction, steps, tuple(sorted(set(indices))), amplitude, fretting_steps)
+
+
+def _parameters(function) -> set[str]:
+    return set(inspect.signature(function).parameters)
+
+
+def _definition(raw: dict, study: Study) -> str:
+    """What determines the results, as canonical JSON: the study without its description
+    and [farm] table, and the SHA-256 of the measured surfaces it reads."""
+    relevant = {k: v for k, v in raw.items() if k not in ("description", "farm")}
+    files = {t.surface["path"] for t in study.tasks()} if study.surface["generator"] == "file" else ()
+    contents = sorted(hashlib.sha256(Path(p).read_bytes()).hexdigest() for p in files if Path(p).is_file())
+    return json.dumps({"study": relevant, "files": contents}, sort_keys=True, default=str)

@@ -1,0 +1,200 @@
+"""The task farm: groups of ranks solve tasks; rank 0 receives each result as it finishes.
+
+The communicator is split into groups of k consecutive ranks (as
+Firedrake's ``Ensemble`` does): each group solves one task at a time with
+its operator distributed over the group, and the groups' rank 0s (the
+leaders) form the communicator of an ``mpi4py.futures.MPICommExecutor``.
+Rank 0 submits tasks to the other leaders, at most one in flight each, from
+the executor's manager thread (a finished task's callback delivers the
+result and submits the next), while its main thread solves tasks itself, so
+no rank only waits. Leaders broadcast each task to their group; the other
+ranks of a group loop on that broadcast until told to stop.
+
+Any exception that escapes a task on any rank (a defect, not bad input nor a
+non-converging solve, which tasks record as failures) prints its message
+with the rank and aborts the whole job: the other ranks never wait forever
+in a collective. Finished tasks are on disk already, so the next run resumes.
+"""
+from __future__ import annotations
+
+import sys
+import threading
+import traceback
+from collections import deque
+from typing import Callable
+
+from ..errors import InputError, RoughContactError
+
+#: exit status of a job aborted by an unexpected error on some rank
+ABORT_CODE = 70
+
+_STATE: dict = {}      # the work function and groups of this process, for tasks sent to it
+
+
+class Groups:
+    """``comm`` split into groups of ``size`` consecutive ranks, and the communicator of their leaders."""
+
+    def __init__(self, comm, size: int):
+        from mpi4py import MPI
+
+        ranks = comm.Get_size()
+        if isinstance(size, bool) or not isinstance(size, int) or size < 1 or ranks % size:
+            raise InputError("farm.ranks_per_task", f"{size!r} does not divide the {ranks} rank(s) of the run; "
+                                                    f"use a divisor of {ranks} (or run on a multiple of {size})")
+        rank = comm.Get_rank()
+        self.comm = comm
+        self.size = size
+        self.group = comm.Split(rank // size, rank)
+        self.is_leader = self.group.Get_rank() == 0
+        self.leaders = comm.Split(0 if self.is_leader else MPI.UNDEFINED, rank)
+
+    @property
+    def count(self) -> int:
+        return self.comm.Get_size() // self.size
+
+    def free(self) -> None:
+        from mpi4py import MPI
+
+        if self.leaders != MPI.COMM_NULL:
+            self.leaders.Free()
+        self.group.Free()
+
+
+def run_farm(tasks: list, comm, ranks_per_task: int, work: Callable, deliver: Callable,
+             backoff: float = 0.002) -> None:
+    """Solve ``tasks`` on groups of ``ranks_per_task`` ranks of ``comm`` (collective).
+
+    ``work(task, group_comm)`` runs on every rank of the group that takes the
+    task; its value on the group's leader reaches ``deliver(task, value)`` on
+    rank 0 of ``comm``, called from the main thread or from the executor's
+    manager thread (so it must be thread-safe), as soon as the task finishes.
+    ``backoff`` is the longest sleep (s) of the executor's polling loops.
+    """
+    from mpi4py import MPI
+    from mpi4py.futures import MPICommExecutor
+
+    groups = Groups(comm, ranks_per_task)
+    _STATE.update(work=work, groups=groups)
+    try:
+        if not groups.is_leader:
+            while (task := groups.group.bcast(None, root=0)) is not None:
+                _guarded(work, task, groups.group, comm)
+            return
+        if groups.leaders.Get_size() == 1:
+            for task in tasks:
+                deliver(task, _lead(task))
+        else:
+            with MPICommExecutor(groups.leaders, root=0, backoff=backoff) as executor:
+                if executor is not None:
+                    root_works = MPI.Query_thread() >= MPI.THREAD_MULTIPLE
+                    try:
+                        _feed(executor, tasks, deliver, groups.leaders.Get_size() - 1, root_works, comm)
+                    except BaseException:   # abort now: leaving the block would wait for the workers
+                        abort(comm, f"roughcontact: rank 0: {traceback.format_exc()}")
+        if groups.group.Get_size() > 1:
+            groups.group.bcast(None, root=0)
+    except BaseException:
+        if comm.Get_size() == 1:
+            raise
+        abort(comm, f"roughcontact: rank {comm.Get_rank()} of {comm.Get_size()}: {traceback.format_exc()}")
+    finally:
+        _STATE.clear()
+        groups.free()
+
+
+def _feed(executor, tasks, deliver, remote_workers: int, root_works: bool, comm) -> None:
+    """Rank 0: keep one task in flight per remote leader, solve the rest here."""
+    # the manager thread creates its intercommunicator first: MPICH may deadlock when it does so
+    # while this thread creates the communicators of a solve (PETSc duplicates them)
+    executor.bootup(wait=True)
+    queue = deque(tasks)
+    lock = threading.Lock()
+    outstanding: set = set()
+    settled = threading.Condition()
+
+    def take():
+        with lock:
+            return queue.popleft() if queue else None
+
+    def submit():
+        task = take()
+        if task is None:
+            return
+        future = executor.submit(_remote, task)
+        with settled:
+            outstanding.add(future)
+        future.add_done_callback(lambda f: finished(f, task))
+
+    def finished(future, task):      # the manager thread, as soon as the leader answers
+        try:
+            deliver(task, future.result())
+            submit()
+        except BaseException:
+            abort(comm, f"roughcontact: rank 0: could not take the result of task {task.index}: "
+                        f"{traceback.format_exc()}")
+        with settled:
+            outstanding.discard(future)
+            settled.notify_all()
+
+    for _ in range(remote_workers):
+        submit()
+    while root_works and (task := take()) is not None:
+        deliver(task, _lead(task))
+    with settled:
+        settled.wait_for(lambda: not outstanding and not queue)
+
+
+def _remote(task):
+    """A task on a leader other than rank 0 (called by the executor's worker loop)."""
+    return _lead(task)
+
+
+def _lead(task):
+    groups = _STATE["groups"]
+    if groups.group.Get_size() > 1:
+        groups.group.bcast(task, root=0)
+    return _guarded(_STATE["work"], task, groups.group, groups.comm)
+
+
+def _guarded(work, task, group, comm):
+    try:
+        return work(task, group)
+    except BaseException:
+        if comm.Get_size() == 1:
+            raise
+        abort(comm, f"roughcontact: rank {comm.Get_rank()} of {comm.Get_size()}: unexpected error in "
+                    f"{getattr(task, 'name', task)}:\n{traceback.format_exc()}")
+
+
+def abort(comm, message: str) -> None:
+    """Print ``message`` and abort every rank of ``comm`` (never returns)."""
+    sys.stderr.write(message.rstrip() + "\n")
+    sys.stderr.flush()
+    comm.Abort(ABORT_CODE)
+
+
+def on_root(comm, function: Callable, *args):
+    """``function(*args)`` on rank 0, its value on every rank.
+
+    A :class:`~roughcontact.errors.RoughContactError` it raises is raised on
+    every rank; anything else aborts the job (another rank would wait for
+    rank 0 forever otherwise).
+    """
+    value = error = None
+    if comm.Get_rank() == 0:
+        try:
+            value = function(*args)
+        except RoughContactError as exc:
+            error = (type(exc), str(exc), dict(exc.__dict__))
+        except BaseException:
+            if comm.Get_size() == 1:
+                raise
+            abort(comm, f"roughcontact: rank 0: {traceback.format_exc()}")
+    value, error = comm.bcast((value, error), root=0)
+    if error is not None:
+        cls, text, attrs = error
+        exc = cls.__new__(cls)
+        Exception.__init__(exc, text)
+        exc.__dict__.update(attrs)
+        raise exc
+    return value

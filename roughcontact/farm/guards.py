@@ -1,0 +1,158 @@
+"""Checks before the first solve: operator memory, oversubscription, the size of the results.
+
+The dense operator of a task holds N² float64 entries over its group's
+ranks (Eq. 10); an ensemble that cannot hold it is refused with the ways
+out instead of a numpy ``MemoryError`` or an out-of-memory kill halfway
+through. Every check here is collective over the run's communicator and
+decides the same on every rank.
+"""
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+from ..errors import InputError
+
+#: share of a rank's memory the operator may take; the rest holds the interpreter, PETSc's
+#: vectors, the result fields and the task file being encoded
+MEMORY_SHARE = 0.8
+
+#: bytes per grid node and solve of the fields stored at each level (force, pressure, gap:
+#: float64; contact, zone: int8); tangential fields: traction, slip, energy density and zone
+_NORMAL_BYTES = {"none": 0, "contact": 1, "all": 3 * 8 + 1}
+_TANGENTIAL_BYTES = {"none": 0, "contact": 1, "all": 3 * 8 + 1}
+
+
+def available_memory() -> int:
+    """Bytes this node can still give: MemAvailable, or the cgroup's remaining limit if lower."""
+    limits = []
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemAvailable:"):
+                limits.append(int(line.split()[1]) * 1024)
+    except OSError:
+        pass
+    for limit_file, usage_file in (("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
+                                   ("/sys/fs/cgroup/memory/memory.limit_in_bytes",
+                                    "/sys/fs/cgroup/memory/memory.usage_in_bytes")):
+        try:
+            limit = Path(limit_file).read_text().strip()
+            if limit != "max" and int(limit) < 2**60:
+                limits.append(int(limit) - int(Path(usage_file).read_text()))
+        except (OSError, ValueError):
+            continue
+    return min(limits) if limits else 2**62
+
+
+def task_size(task) -> tuple[int, int]:
+    """(grid nodes, footprint nodes) of a task, at most, without building generated surfaces.
+
+    Fields are stored on the whole grid; the footprint nodes are the unknowns
+    of the normal problem. Exact for generated surfaces on a rectangle or a
+    disc footprint (a mated shift only removes nodes); measured surfaces are read.
+    """
+    import numpy as np
+
+    from ..surfaces import disc
+    from ..surfaces._checks import check_shape
+
+    spec = task.surface
+    if spec["generator"] == "file":
+        topography = task.topography()
+        return int(topography.heights.size), int(topography.footprint.sum())
+    shape = (2 ** spec["levels"] + 1,) * 2 if spec["generator"] == "midpoint" else check_shape(spec["shape"])
+    factor = spec.get("coarsening") or 1
+    shape = tuple(-(-n // factor) for n in shape)
+    grid = int(np.prod(shape))
+    if spec.get("footprint_diameter") is None:
+        return grid, grid
+    try:
+        return grid, int(disc(shape, float(spec.get("spacing", 1.0)) * factor, spec["footprint_diameter"]).sum())
+    except InputError as exc:
+        raise InputError("surface.footprint_diameter", str(exc).split(": ", 1)[1]) from None
+
+
+def check_operator_memory(study, nodes: int, comm) -> None:
+    """Refuse a study whose largest operator does not fit in the memory of a rank.
+
+    Each rank of a node may hold its share of one operator
+    (:func:`roughcontact.operators.operator_memory` over ``ranks_per_task``
+    ranks); the node's available memory is divided among its ranks.
+    """
+    from mpi4py import MPI
+
+    from ..operators import operator_memory
+    from ..operators.memory import KINDS
+
+    node = comm.Split_type(MPI.COMM_TYPE_SHARED)
+    local = node.Get_size()
+    node.Free()
+    per_rank = comm.allreduce(available_memory() / local, op=MPI.MIN)
+    kind, k = study.normal.operator, study.ranks_per_task
+    need = operator_memory(kind, nodes, k)
+    if need > MEMORY_SHARE * per_rank:
+        others = [o for o in KINDS if o != kind]
+        raise InputError("surface", (
+            f"the {kind} operator of the largest task ({nodes} footprint nodes) needs {need / 2**30:.2f} GiB "
+            f"per rank with ranks_per_task = {k}, more than {MEMORY_SHARE:.0%} of the "
+            f"{per_rank / 2**30:.2f} GiB each of the {local} rank(s) on a node can have. Use more ranks per "
+            f"task ([farm] ranks_per_task = {2 * k}, needing {operator_memory(kind, nodes, 2 * k) / 2**30:.2f} "
+            f"GiB per rank), fewer ranks per node, a coarser grid (levels, spacing, coarsening)"
+            + (f", or another operator (normal.operator = {' or '.join(repr(o) for o in others)})"
+               if others else ", or a matrix-free operator when one is available")))
+
+
+def oversubscription(comm) -> str | None:
+    """A warning when a node runs more ranks than it has cores (collective)."""
+    from mpi4py import MPI
+
+    node = comm.Split_type(MPI.COMM_TYPE_SHARED)
+    try:
+        cpus = set().union(*node.allgather(sorted(os.sched_getaffinity(0))))
+        local = node.Get_size()
+    finally:
+        node.Free()
+    cores = min(len(cpus), _cgroup_cpus())
+    if local > cores:
+        return (f"{local} ranks share {cores} core(s) on a node: the run is oversubscribed and will be "
+                f"much slower than with {cores} rank(s)")
+    return None
+
+
+def storage_estimate(study, grid_nodes: int) -> str:
+    """What the results will weigh, said before the run (an upper bound before compression)."""
+    tasks = math.prod(study.shape)
+    loads = len(study.loads)
+    per_task = loads * (20 * 8 + _NORMAL_BYTES[study.fields] * grid_nodes)
+    if study.tangential is not None:
+        states = study.tangential.steps + 1
+        per_task += loads * states * (25 * 8 + _TANGENTIAL_BYTES[study.fields] * grid_nodes)
+    total = tasks * per_task
+    return (f"fields {study.fields!r}: up to {_size(total)} for {tasks} task(s) × {loads} load(s) "
+            f"on up to {grid_nodes} nodes, once in the task files and once in {study.name}.nc "
+            f"(fields compressed)")
+
+
+def _size(nbytes: float) -> str:
+    for unit in ("B", "kB", "MB", "GB", "TB"):
+        if nbytes < 1000 or unit == "TB":
+            return f"{nbytes:.0f} {unit}" if unit == "B" else f"{nbytes:.1f} {unit}"
+        nbytes /= 1000
+
+
+def _cgroup_cpus() -> float:
+    try:                                           # cgroup v2: "quota period" or "max period"
+        quota, period = Path("/sys/fs/cgroup/cpu.max").read_text().split()
+        if quota != "max":
+            return max(1, math.floor(int(quota) / int(period)))
+    except (OSError, ValueError):
+        pass
+    try:                                           # cgroup v1
+        quota = int(Path("/sys/fs/cgroup/cpu/cpu.cfs_quota_us").read_text())
+        period = int(Path("/sys/fs/cgroup/cpu/cpu.cfs_period_us").read_text())
+        if quota > 0:
+            return max(1, math.floor(quota / period))
+    except (OSError, ValueError):
+        pass
+    return math.inf

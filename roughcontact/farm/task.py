@@ -1,0 +1,220 @@
+"""One task of a study: a composite topography, its load sweep, tangential sweeps and fretting.
+
+A :class:`Task` is a small, picklable, pure description; :func:`solve_task`
+needs only the communicator it is handed (the ranks of one group of the
+farm, or any communicator when called by hand). The normal problem and its
+solver are opened in one place, :func:`open_normal_solver`, which is where
+a study's ``[normal]`` choices (:class:`NormalOptions`) reach the solvers.
+"""
+from __future__ import annotations
+
+import time
+import warnings
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError, RoughContactError
+from ..materials import Interface
+from ..surfaces.topography import Topography
+
+#: flexibility operators a study's ``normal.operator`` may name (built in :func:`open_normal_solver`)
+OPERATORS = ("dense",)
+#: inner solvers of the active set (``normal.method``, :class:`~roughcontact.normal.ActiveSetSolver`)
+METHODS = ("ksp", "gauss-seidel")
+
+
+@dataclass(frozen=True)
+class NormalOptions:
+    """How each normal problem is assembled and solved: ``operator`` and ``method``."""
+
+    operator: str = "dense"
+    method: str = "ksp"
+
+    def __post_init__(self):
+        for key, value, choices in (("operator", self.operator, OPERATORS), ("method", self.method, METHODS)):
+            if value not in choices:
+                raise InputError(f"normal.{key}", f"must be one of {', '.join(repr(c) for c in choices)}, "
+                                                  f"got {value!r}")
+
+
+@dataclass(frozen=True)
+class TangentialOptions:
+    """Tangential sweeps Q = k fP / N (k = 0 … N − 1, then the limit Q → fP) at some loads.
+
+    ``at`` holds indices into the task's loads; ``fretting_amplitude`` is Q*/(fP)
+    of an optional fretting cycle at the same loads, ``fretting_steps`` its
+    intervals per branch.
+    """
+
+    friction: float
+    steps: int
+    at: tuple[int, ...]
+    fretting_amplitude: float | None = None
+    fretting_steps: int = 10
+
+
+@dataclass(frozen=True)
+class Task:
+    """Everything one task needs, and nothing else (pickled to the rank that solves it).
+
+    ``position`` is its index along each study dimension, ``labels`` the axis
+    values that made it; ``loads`` are P (N) when ``load_dim`` is
+    ``"normal_load"``, nominal pressures σ0 = P/A0 (Pa) when it is
+    ``"mean_pressure"``.
+    """
+
+    index: int
+    position: tuple[int, ...]
+    labels: dict[str, Any]
+    surface: dict[str, Any]
+    interface: Interface
+    loads: tuple[float, ...]
+    load_dim: str = "normal_load"
+    normal: NormalOptions = field(default_factory=NormalOptions)
+    tangential: TangentialOptions | None = None
+    fields: str = "contact"
+
+    @property
+    def name(self) -> str:
+        """A label for messages: the task number and its axis values."""
+        values = ", ".join(f"{k}={_short(v)}" for k, v in self.labels.items())
+        return f"task {self.index}" + (f" ({values})" if values else "")
+
+    def topography(self) -> Topography:
+        """The composite topography Δh (identical on every rank).
+
+        Steps, each optional after the first: generate or read the surface;
+        decimate it by ``coarsening`` (the same surface at s, 2s, 4s…, Fig. 1);
+        detrend it; restrict it to a disc footprint (a cylindrical specimen,
+        §3.4); form the composite with its mate shifted by v (Fig. 7).
+        """
+        from ..surfaces import coarsen, detrend, disc, mated_composite
+
+        spec = dict(self.surface)
+        generator = spec.pop("generator")
+        factor = spec.pop("coarsening", None)
+        mode = spec.pop("detrend", None)
+        shift = spec.pop("mate_shift", None)
+        diameter = spec.pop("footprint_diameter", None)
+        topography = generators()[generator](**spec)
+        if factor is not None and factor != 1:
+            topography = coarsen(topography, factor)
+        if mode is not None:
+            topography = detrend(topography, mode)
+        if diameter is not None:
+            topography = topography.with_footprint(
+                topography.footprint & disc(topography.shape, topography.spacing, diameter))
+        if shift is not None:
+            topography = mated_composite(topography, tuple(shift))
+        return topography
+
+
+def generators() -> dict[str, Any]:
+    """The surface generators a study's ``surface.generator`` may name."""
+    from ..surfaces import fourier_surface, midpoint_surface, read_topography
+
+    return {"midpoint": midpoint_surface, "fourier": fourier_surface, "file": read_topography}
+
+
+@contextmanager
+def open_normal_solver(topography: Topography, interface: Interface, comm, options: NormalOptions):
+    """The normal problem of ``topography`` on ``comm`` and its active-set solver, freed on exit.
+
+    The one place where ``options.operator`` chooses the flexibility operator
+    (Eq. 10, dense H) and ``options.method`` the inner solver; yields the
+    :class:`~roughcontact.normal.ActiveSetSolver` (``solver.problem`` is the problem).
+    """
+    from ..normal import ActiveSetSolver, NormalProblem
+
+    if options.operator == "dense":
+        problem = NormalProblem(topography, interface, comm)
+    else:  # pragma: no cover - NormalOptions admits only the operators above
+        raise InputError("normal.operator", f"{options.operator!r} has no builder")
+    try:
+        with ActiveSetSolver(problem, options.method) as solver:
+            yield solver
+    finally:
+        problem.destroy()
+
+
+@dataclass
+class TaskOutcome:
+    """What solving a task produced, on every rank of its communicator.
+
+    ``normal`` holds the solved loads in order; after a failure (``error``),
+    the loads solved before it. ``sweeps`` and ``cycles`` are keyed by the
+    index of the load they were run at.
+    """
+
+    task: Task
+    topography: Topography | None = None
+    loads: np.ndarray | None = None
+    normal: list = field(default_factory=list)
+    incipient_energy: list = field(default_factory=list)
+    sweeps: dict = field(default_factory=dict)
+    cycles: dict = field(default_factory=dict)
+    error: str | None = None
+    warnings: tuple[str, ...] = ()
+    elapsed: float = 0.0
+    ranks: int = 1
+
+
+def solve_task(task: Task, comm) -> TaskOutcome:
+    """Solve ``task`` on the ranks of ``comm``: each load warm-started from the last (§3.1).
+
+    With ``task.tangential``, every load also gets the incipient-sliding energy
+    E_tot (Eq. 27) and the chosen loads a Q sweep (Eqs. 21–26) and a fretting
+    cycle. A :class:`~roughcontact.errors.RoughContactError` (bad input met
+    inside the task, a solver that does not converge) ends the task: the
+    outcome keeps what was solved before it and the message. Warnings are
+    recorded with the outcome, not printed.
+    """
+    from ..tangential import fretting_cycle, incipient_sliding_energy, tangential_sweep
+
+    t0 = time.perf_counter()
+    outcome = TaskOutcome(task=task, ranks=comm.Get_size())
+    tangential = task.tangential
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            topography = outcome.topography = task.topography()
+            scale = topography.nominal_area if task.load_dim == "mean_pressure" else 1.0
+            outcome.loads = np.asarray(task.loads) * scale
+            with open_normal_solver(topography, task.interface, comm, task.normal) as solver:
+                problem = solver.problem
+                for i, load in enumerate(outcome.loads):
+                    normal = solver.solve_load(float(load))
+                    outcome.normal.append(normal)
+                    if tangential is None:
+                        continue
+                    f = tangential.friction
+                    outcome.incipient_energy.append(
+                        incipient_sliding_energy(problem, normal, f) if load > 0.0 else 0.0)
+                    if i not in tangential.at:
+                        continue
+                    q = f * load * np.arange(tangential.steps) / tangential.steps
+                    outcome.sweeps[i] = tangential_sweep(problem, normal, f, tangential=q,
+                                                         method=task.normal.method)
+                    if tangential.fretting_amplitude is not None:
+                        outcome.cycles[i] = fretting_cycle(
+                            problem, normal, f, tangential.fretting_amplitude * f * load,
+                            tangential.fretting_steps, method=task.normal.method)
+        except RoughContactError as exc:
+            outcome.error = f"{type(exc).__name__}: {exc}"
+    outcome.warnings = tuple(dict.fromkeys(f"{w.category.__name__}: {w.message}" for w in caught))
+    outcome.elapsed = time.perf_counter() - t0
+    return outcome
+
+
+def _short(value) -> str:
+    if isinstance(value, Interface):
+        return f"E1={value.body1.E:g}/E2={value.body2.E:g}"
+    if isinstance(value, (tuple, list)):
+        return "[" + ", ".join(f"{v:g}" for v in value) + "]"
+    if isinstance(value, str):
+        return Path(value).name
+    return f"{value:g}" if isinstance(value, float) else str(value)

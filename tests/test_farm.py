@@ -1,0 +1,213 @@
+"""The ensemble farm: the same numbers as solving each task alone, on any layout, with labels.
+
+Run serially and under ``mpiexec -n 2``: with two ranks the farm is a real
+``mpi4py.futures`` farm of two groups (or one group of two ranks), and every
+assertion is checked on every rank against the combined file rank 0 wrote.
+Small tasks (17 × 17 nodes, three loads) keep the file quick.
+"""
+from __future__ import annotations
+
+import random
+
+import numpy as np
+import pytest
+import xarray as xr
+from mpi4py import MPI
+
+from roughcontact.errors import ConvergenceError, InputError
+from roughcontact.farm import load_study, run_study, solve_task
+from roughcontact.farm.records import task_groups
+from roughcontact.farm.store import TaskStore
+
+
+def tiny(name: str = "tiny-ensemble", **tables) -> dict:
+    """2 Δ × 3 seeds on 17² nodes, three loads, a Q sweep and a fretting cycle at the largest.
+    ν = 0 bodies: the Cattaneo analogy is exact (β = γ = 0), so no approximation warning."""
+    raw = {"name": name,
+           "surface": {"generator": "midpoint", "levels": 4, "spacing": 1e-4, "rms_height": 1e-5},
+           "axes": {"fractal_dimension": [2.2, 2.4], "seeds": 3},
+           "materials": {"body1": {"E": 20e9, "nu": 0.0}, "body2": {"E": 20e9, "nu": 0.0}},
+           "normal": {"loads": [2.0, 5.0, 10.0]},
+           "tangential": {"friction": 0.5, "steps": 3, "at": [10.0], "fretting_amplitude": 0.5},
+           "output": {"fields": "all"}}
+    raw.update(tables)
+    return raw
+
+
+def quiet(*args, **kwargs):
+    pass
+
+
+@pytest.fixture
+def shared_dir(tmp_path, comm):
+    """Rank 0's directory on every rank: rank 0 writes the files, every rank checks them."""
+    from pathlib import Path
+
+    return Path(comm.bcast(str(tmp_path), root=0))
+
+
+def open_group(path, group=None):
+    with xr.open_dataset(path, engine="h5netcdf", group=group) as ds:
+        return ds.load()
+
+
+def timing(name: str) -> bool:
+    """Wall times differ from run to run; everything else must not."""
+    return "elapsed" in name
+
+
+def assert_task_matches(groups: dict, combined: dict, study, task) -> None:
+    """Every variable of a task's own datasets equals its slice of the combined dataset, bit for bit."""
+    where = dict(zip((d.name for d in study.dimensions), task.position))
+    for name, ds in groups.items():
+        part = combined[name].isel(where)
+        for var in ds.data_vars:
+            if timing(var):
+                continue
+            mine = ds[var].values
+            theirs = part[var].values[tuple(slice(0, n) for n in mine.shape)]
+            np.testing.assert_array_equal(mine, theirs, err_msg=f"{task.name}, {name}/{var}")
+
+
+def test_farm_equals_tasks_solved_one_by_one(comm, shared_dir):
+    """The combined dataset holds, at each task's place, exactly what solving that task alone
+    on one rank gives (bitwise: with one rank per task the arithmetic is the same), whatever
+    the order the farm took the tasks in; and equilibrium holds (Σ p̄ = P to 1e-9, ten times
+    the load-control tolerance, observed ~1e-13)."""
+    study = load_study(tiny())
+    summary = run_study(study, comm, shared_dir, log=quiet, quiet=True)
+    assert summary.exit_code == 0 and summary.solved == 6 and not summary.failed
+    path = summary.paths["netcdf"]
+    combined = {g: open_group(path, None if g == "/" else g) for g in ("/", "tangential", "fretting")}
+    root = combined["/"]
+    assert root.sizes == {"fractal_dimension": 2, "seed": 3, "normal_load": 3, "x": 17, "y": 17}
+    assert list(root["seed"].values) == [1, 2, 3]
+    np.testing.assert_allclose(root["force"].sum(("x", "y")), np.broadcast_to([2.0, 5.0, 10.0], (2, 3, 3)),
+                               rtol=1e-9)
+    assert root["normal_load"].attrs["units"] == "N" and "load" not in root.variables
+    assert (root["status"] == 0).all()
+    tasks = study.tasks()
+    random.Random(comm.Get_rank()).shuffle(tasks)        # another order on each rank
+    for task in tasks[:3]:
+        assert_task_matches(task_groups(solve_task(task, MPI.COMM_SELF)), combined, study, task)
+    # the tangential group is labelled by Q / fP and carries Q = (Q/fP) f P as a coordinate
+    tangential = combined["tangential"]
+    np.testing.assert_array_equal(tangential["Q_over_fP"], [0.0, 1 / 3, 2 / 3, 1.0])
+    np.testing.assert_allclose(tangential["Q"].sel(normal_load=10.0), [0.0, 5 / 3, 10 / 3, 5.0], rtol=1e-15)
+    assert tangential["stick_area"].sel(normal_load=2.0).isnull().all()   # no sweep asked at 2 N
+    assert tangential["limit"].sel(normal_load=10.0, Q_over_fP=1.0).all()
+
+
+def test_one_or_two_ranks_per_task_agree(comm, shared_dir):
+    """Two groups of one rank and one group of two ranks solve the same tasks: the operator
+    rows are split differently, so sums are rounded differently; the states agree to the
+    solver's load tolerance (1e-8 relative) and the contact sets node for node."""
+    study = load_study(tiny(name="layout", tangential={}))
+    if comm.Get_size() % 2:
+        with pytest.raises(InputError) as info:
+            run_study(study, comm, shared_dir, log=quiet, ranks_per_task=2)
+        assert info.value.parameter == "farm.ranks_per_task"
+        return
+    one = run_study(study, comm, shared_dir / "k1", log=quiet, quiet=True, ranks_per_task=1)
+    two = run_study(study, comm, shared_dir / "k2", log=quiet, quiet=True, ranks_per_task=2)
+    a, b = open_group(one.paths["netcdf"]), open_group(two.paths["netcdf"])
+    assert a.attrs["ranks_per_task"] == 1 and b.attrs["ranks_per_task"] == 2
+    np.testing.assert_array_equal(a["contact"], b["contact"])
+    for var in ("closure", "contact_fraction", "centroid_x", "mean_pressure"):
+        np.testing.assert_allclose(a[var], b[var], rtol=1e-8)
+
+
+def test_failed_task_is_recorded_and_the_rest_complete(comm, shared_dir, monkeypatch):
+    """A solver failure inside one task keeps that task's solved loads and its message, the
+    other tasks complete, and the run says so; a second run does not retry it unless asked."""
+    from roughcontact.normal import ActiveSetSolver
+
+    solve_load = ActiveSetSolver.solve_load
+
+    def fail(self, load, *args, **kwargs):     # the same decision on every rank of the task
+        meta = self.problem.topography.metadata
+        if meta.get("seed") == 2 and meta.get("fractal_dimension") == 2.4 and load == 5.0:
+            raise ConvergenceError("ACTIVE_SET_MAX_ITERATIONS", "forced for the test")
+        return solve_load(self, load, *args, **kwargs)
+
+    monkeypatch.setattr(ActiveSetSolver, "solve_load", fail)
+    study = load_study(tiny(name="failing", tangential={}))
+    summary = run_study(study, comm, shared_dir, log=quiet, quiet=True)
+    assert summary.exit_code == 1 and list(summary.failed) == [4]          # (Δ = 2.4, seed 2)
+    assert "ACTIVE_SET_MAX_ITERATIONS" in summary.failed[4]
+    ds = open_group(summary.paths["netcdf"])
+    failed = ds.sel(fractal_dimension=2.4, seed=2)
+    assert int(failed["status"]) == 1 and "forced for the test" in str(failed["message"].values)
+    assert np.isfinite(failed["closure"].sel(normal_load=2.0))                # solved before the failure
+    assert failed["closure"].sel(normal_load=[5.0, 10.0]).isnull().all()
+    assert (failed["contact"].sel(normal_load=10.0) == -1).all()             # int8 "not computed"
+    assert int((ds["status"] == 0).sum()) == 5 and ds["closure"].count() == 5 * 3 + 1
+    again = run_study(study, comm, shared_dir, log=quiet, quiet=True)
+    assert again.solved == 0 and again.resumed == 6 and list(again.failed) == [4]
+    monkeypatch.setattr(ActiveSetSolver, "solve_load", solve_load)
+    retried = run_study(study, comm, shared_dir, log=quiet, quiet=True, retry_failed=True)
+    assert retried.solved == 1 and retried.exit_code == 0
+
+
+def test_resume_recomputes_only_missing_tasks(comm, shared_dir):
+    """Deleting two task files (and leaving a torn ``.part``) makes the next run solve exactly
+    those two; the other files are not rewritten and the result is the same, bit for bit."""
+    study = load_study(tiny(name="resume", tangential={}, output={"fields": "contact"}))
+    first = run_study(study, comm, shared_dir, log=quiet, quiet=True)
+    store = TaskStore(shared_dir, study.name)
+    before = open_group(first.paths["netcdf"])
+    comm.Barrier()
+    if comm.Get_rank() == 0:
+        for index in (1, 4):
+            store.path(index).unlink()
+        store.path(3).with_name("task-00003.nc.part").write_bytes(b"torn write")
+    kept = {i: store.path(i).stat().st_mtime_ns for i in (0, 2, 3, 5)}
+    comm.Barrier()
+    second = run_study(study, comm, shared_dir, log=quiet, quiet=True)
+    assert second.solved == 2 and second.resumed == 4
+    assert {i: store.path(i).stat().st_mtime_ns for i in kept} == kept
+    assert not list(store.directory.glob("*.part"))
+    after = open_group(second.paths["netcdf"])
+    for var in before.data_vars:
+        if not timing(var):
+            np.testing.assert_array_equal(before[var].values, after[var].values, err_msg=var)
+
+
+def test_changed_study_under_the_same_name_is_refused(comm, shared_dir):
+    run_study(load_study(tiny(name="same", tangential={}, axes={"fractal_dimension": [2.3], "seeds": 1})), comm, shared_dir,
+              log=quiet, quiet=True)
+    changed = load_study(tiny(name="same", tangential={}, axes={"fractal_dimension": [2.3], "seeds": 1},
+                              normal={"loads": [2.0, 5.0, 20.0]}))
+    with pytest.raises(InputError, match="different definition.*changed: normal") as info:
+        run_study(changed, comm, shared_dir, log=quiet, quiet=True)
+    assert info.value.parameter == "name"
+    # the description and the rank layout are not part of the definition
+    renamed = load_study({**tiny(name="same", tangential={}, axes={"fractal_dimension": [2.3], "seeds": 1}), "description": "new words",
+                          "farm": {"ranks_per_task": 1}})
+    assert run_study(renamed, comm, shared_dir, log=quiet, quiet=True).resumed == 1
+
+
+def test_pressures_zip_and_shift_axes(comm, shared_dir):
+    """Loads given as σ0 = P/A0 mean the same on every footprint; zipped axes share one
+    dimension; mated shifts label a ``shift`` dimension; grids that differ keep the fields
+    in the task files only."""
+    raw = tiny(name="axes", tangential={}, axes={"levels": [3, 4], "spacing": [2e-4, 1e-4],
+                                                 "mate_shift": [[1e-4, 0.0], [3e-4, 0.0]],
+                                                 "zip": ["levels", "spacing"]},
+               normal={"pressures": [1e5, 3e5]}, output={"fields": "contact"})
+    raw["surface"] = {"generator": "midpoint", "rms_height": 1e-5, "fractal_dimension": 2.3, "seed": 5}
+    study = load_study(raw)
+    assert [d.name for d in study.dimensions] == ["levels", "shift"]
+    summary = run_study(study, comm, shared_dir, log=quiet, quiet=True)
+    ds = open_group(summary.paths["netcdf"])
+    assert dict(ds.sizes) == {"levels": 2, "shift": 2, "mean_pressure": 2}
+    np.testing.assert_array_equal(ds["spacing"], [2e-4, 1e-4])            # a coordinate on "levels"
+    np.testing.assert_array_equal(ds["shift_x"], [1e-4, 3e-4])
+    # P = σ0 A0 to the load tolerance; A0 = (footprint nodes) s²
+    imposed = (ds["mean_pressure"] * ds["nominal_area"]).transpose(*ds["normal_load"].dims)
+    np.testing.assert_allclose(ds["normal_load"], imposed, rtol=1e-9)
+    np.testing.assert_allclose(ds["nominal_area"], ds["footprint_nodes"] * ds["grid_spacing"] ** 2, rtol=1e-15)
+    assert "contact" not in ds and "grids differ" in ds.attrs["fields_note"]
+    task = xr.open_dataset(TaskStore(shared_dir, "axes").path(3), engine="h5netcdf")
+    assert task["contact"].dtype == np.int8 and task.attrs["axis_levels"] == 4
+    task.close()

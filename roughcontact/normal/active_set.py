@@ -113,6 +113,9 @@ class ActiveSetSolver(NormalSolver):
                  settings: ActiveSetSettings = ActiveSetSettings(), rtol: float | None = None,
                  options: dict | None = None, prefix: str = "normal_"):
         super().__init__(problem)
+        if problem.flexibility.periodic:
+            raise InputError("method", f"{method!r} solves displacement-controlled sub-problems, which a "
+                                       "periodic operator does not define (its mean mode is free): use 'cg'")
         self.settings = settings
         self.inner = _inner_solver(problem, method, rtol, options, prefix)
         # warm-start columns of the inner solves (full local length): p and the Hessian's

@@ -110,6 +110,10 @@ class NormalProblem(Collective):
         """Maximum over ranks."""
         return self._allreduce(local, "MAX")
 
+    def allmin(self, local) -> np.ndarray:
+        """Minimum over ranks."""
+        return self._allreduce(local, "MIN")
+
     def _allreduce(self, local, op: str) -> np.ndarray:
         from mpi4py import MPI
 

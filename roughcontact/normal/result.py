@@ -38,6 +38,7 @@ class NormalResult:
     no_contact: bool
     full_contact: bool
     operator: str = "dense"
+    coarse_iterations: int = 0
     converged: bool = True
     reason: str = "CONVERGED"
     residual_history: tuple[float, ...] = field(default_factory=tuple)

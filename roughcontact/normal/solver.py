@@ -112,6 +112,9 @@ class NormalSolver(Collective):
         t0 = time.perf_counter()
         self.problem._check_alive()
         free = [k for k in range(3) if k not in fixed]
+        if self.problem.flexibility.periodic and (free != [0] or rigid[1] != 0.0 or rigid[2] != 0.0):
+            raise InputError("control", "a periodic operator fixes the mean displacement only through the load "
+                                        "and has no footprint to tilt: use solve_load(P, rotation=(0, 0))")
         rigid = rigid.astype(float).copy()
         if free and loads[0] == 0.0:
             # no load: the bodies at first touch (free rotations zero, fixed ones kept),
@@ -176,6 +179,7 @@ class NormalSolver(Collective):
             outer_iterations=state.outer, linear_iterations=int(state.linear),
             residual=float(state.residual), elapsed=time.perf_counter() - t0,
             solver=self.description, control=control, operator=pb.operator_kind,
+            coarse_iterations=int(getattr(self, "coarse_iterations", 0)),
             no_contact=n_contact == 0, full_contact=n_contact == pb.size,
             residual_history=tuple(state.history))
 

@@ -9,11 +9,12 @@ approximates H, restricted to the contact set S:
     z = R_S C⁻¹ R_Sᵀ g,
 
 i.e. the residual g on S, zero elsewhere, multiplied by 1/symbol in Fourier
-space (a |q| filter) and read back on S. C is the circulant of the kernel
-wrapped onto one period of the grid (nearest image; for a periodic operator
-its own kernel): positive definite (its symbol is positive, checked at set
-up), and an n × n transform instead of the padded 2n × 2n one of the
-product. R_S C⁻¹ R_Sᵀ is symmetric positive definite, so it can precondition
+space (a |q| filter) and read back on S. C is the circulant of the Eq. 10
+kernel wrapped onto one period of the grid (nearest image): positive
+definite (its symbol is positive, checked at set up), and an n × n transform
+instead of the padded 2n × 2n one of the product. The periodic operator uses
+the same C: its own kernel has a zero mean mode (the gauge), which C⁻¹
+cannot invert, and differs from C only in the far field. R_S C⁻¹ R_Sᵀ is symmetric positive definite, so it can precondition
 CG. On a filled contact set it is the inverse of H up to boundary terms; on
 isolated nodes it is a constant multiple of the inverse of the diagonal.
 
@@ -27,6 +28,7 @@ import numpy as np
 
 from ..errors import ConvergenceError
 from .convolution import SlabConvolution
+from .kernel import punch_kernel
 
 
 def wrapped_kernel(kernel: np.ndarray) -> np.ndarray:
@@ -45,8 +47,9 @@ class FourierPreconditioner:
         shape = flexibility.shape
         self.convolution = SlabConvolution(shape, flexibility.comm, periodic=True,
                                            workers=flexibility.convolution.workers)
-        table = flexibility.kernel if flexibility.periodic else wrapped_kernel(flexibility.kernel)
-        self.convolution.set_kernel(table)
+        kernel = punch_kernel(shape, flexibility.spacing, flexibility.compliance) if flexibility.periodic \
+            else flexibility.kernel
+        self.convolution.set_kernel(wrapped_kernel(kernel))
         smallest = flexibility.comm.allreduce(float(self.convolution.symbol.min()), op=_min())
         if not smallest > 0.0:
             raise ConvergenceError("PC_SYMBOL_NOT_POSITIVE",

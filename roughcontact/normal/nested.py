@@ -1,0 +1,114 @@
+"""Coarse-to-fine starts: solve on the grid of spacing 2s, prolong the contact state to s.
+
+A cold solve on a fine grid spends most of its iterations finding the
+contact set at the scales the coarse grids already resolve. A nested start
+solves the same control on the topography decimated by 2 (every other node,
+:func:`~roughcontact.surfaces.coarsen`), recursively down to a grid of at
+most :data:`COARSEST` footprint nodes, and starts the fine solve from the
+coarse pressure interpolated bilinearly to the fine nodes (force = pressure
+× s²), with the coarse rigid motion. The coarse solves are loose (their
+error is dominated by the discretisation anyway): ``tol`` = :data:`COARSE_TOL`.
+
+The controls are carried over in absolute terms: the coarse grid has its own
+highest node and footprint centroid, so an imposed approach δz and imposed
+moments are translated to give the same rigid-body position and the same
+load point, and the coarse approach is translated back.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ConvergenceError, InputError
+from ..surfaces import coarsen
+from .problem import NormalProblem
+from .result import NormalResult
+
+#: footprint nodes of the coarsest grid
+COARSEST = 64 * 64
+#: tolerance of the coarse solves
+COARSE_TOL = 1e-4
+
+
+class NestedStart:
+    """The coarse levels of one fine problem, built on first use and kept for later cold starts.
+
+    Parameters
+    ----------
+    problem
+        The fine :class:`NormalProblem`.
+    make
+        ``make(coarse_problem) -> solver``: a solver of the same method for a
+        coarse level (it gets its own nested start, so the recursion ends at
+        :data:`COARSEST`).
+    """
+
+    def __init__(self, problem: NormalProblem, make):
+        self.problem = problem
+        self.make = make
+        self.solver = None
+        self.coarse_problem = None
+        self.iterations = 0           # linear iterations spent on the coarse levels, last start
+
+    @staticmethod
+    def applies(problem: NormalProblem) -> bool:
+        """Whether the grid is fine enough for a coarse level to pay off."""
+        return problem.size > 4 * COARSEST
+
+    def start(self, rigid: np.ndarray, free: list[int], loads: np.ndarray):
+        """(forces, contact set, rigid motion) on this rank's fine nodes, or None when the
+        coarse level cannot give a start (a load point outside its footprint, a failed solve)."""
+        fine = self.problem
+        if self.solver is None:
+            coarse_topography = coarsen(fine.topography, 2, "decimate")
+            self.coarse_problem = NormalProblem(coarse_topography, fine.interface, fine.comm,
+                                                operator=fine.operator_kind)
+            self.solver = self.make(self.coarse_problem)
+        coarse = self.coarse_problem
+        offset = _height_offset(fine, coarse)
+        shift = fine.centroid - coarse.centroid                 # (x, y) of the fine centroid, coarse frame
+        try:
+            if not free:
+                closure = rigid[0] + rigid[1] * shift[1] + rigid[2] * shift[0] + offset
+                result = self.solver.solve_closure(closure, (rigid[1], rigid[2]))
+            elif len(free) == 1:
+                result = self.solver.solve_load(loads[0], rotation=(rigid[1], rigid[2]))
+            else:
+                load = loads[0]
+                moments = (-loads[1] + load * shift[1], -loads[2] + load * shift[0])
+                result = self.solver.solve_load(load, moments=moments)
+        except (ConvergenceError, InputError):
+            return None
+        self.iterations = result.linear_iterations
+        motion = np.array([result.closure - result.rotation[0] * shift[1] - result.rotation[1] * shift[0]
+                           - offset, *result.rotation])
+        forces = prolong(result, fine)
+        return forces, forces > 0.0, motion
+
+    def destroy(self) -> None:
+        if self.solver is not None:
+            self.solver.destroy()
+            self.coarse_problem.destroy()
+        self.solver = self.coarse_problem = None
+
+
+def _height_offset(fine: NormalProblem, coarse: NormalProblem) -> float:
+    """max Δh on the coarse footprint minus max Δh on the fine one (≤ 0: decimation drops nodes)."""
+    top = lambda pb: float(pb.topography.heights[pb.topography.footprint].max())   # noqa: E731
+    return top(coarse) - top(fine)
+
+
+def prolong(coarse: NormalResult, fine: NormalProblem) -> np.ndarray:
+    """Fine nodal forces (this rank's nodes) from a solution on the grid decimated by 2.
+
+    The coarse pressure (zero off its contact set and footprint) is
+    interpolated bilinearly at the fine nodes, which sit on coarse nodes or
+    halfway between them, and multiplied by the fine cell area s².
+    """
+    pressure = np.where(coarse.contact, coarse.pressure, 0.0)
+    nodes = fine.nodes[fine.start:fine.stop]
+    i, j = nodes[:, 0], nodes[:, 1]
+    cx, cy = pressure.shape
+    i0, j0 = np.minimum(i // 2, cx - 1), np.minimum(j // 2, cy - 1)
+    i1, j1 = np.minimum(i0 + (i % 2), cx - 1), np.minimum(j0 + (j % 2), cy - 1)
+    value = 0.25 * (pressure[i0, j0] + pressure[i1, j0] + pressure[i0, j1] + pressure[i1, j1])
+    return value * fine.topography.spacing**2

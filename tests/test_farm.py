@@ -211,3 +211,29 @@ def test_pressures_zip_and_shift_axes(comm, shared_dir):
     task = xr.open_dataset(TaskStore(shared_dir, "axes").path(3), engine="h5netcdf")
     assert task["contact"].dtype == np.int8 and task.attrs["axis_levels"] == 4
     task.close()
+
+
+def test_task_files_read_back_as_written(comm):
+    """The task file writer (h5py with netCDF-4's conventions) gives, through xarray, exactly the
+    datasets it was handed: numbers, int8 fields, strings, auxiliary coordinates and groups; also
+    for a task that failed before its first load (an InputError raised inside the task: a mated
+    shift larger than the surface leaves no overlap)."""
+    import io
+
+    from roughcontact.datasets import netcdf_attrs
+    from roughcontact.farm.records import encode
+
+    study = load_study(tiny(name="files", axes={"mate_shift": [[1e-4, 0.0], [5e-3, 0.0]]},
+                            surface={"generator": "midpoint", "levels": 4, "spacing": 1e-4, "rms_height": 1e-5,
+                                     "fractal_dimension": 2.3, "seed": 1}))
+    completed, failed = (solve_task(task, MPI.COMM_SELF) for task in study.tasks())
+    assert completed.error is None and failed.error.startswith("InputError: shift")
+    for outcome in (completed, failed):
+        groups = task_groups(outcome)
+        data = encode(groups)
+        for name, ds in groups.items():
+            with xr.open_dataset(io.BytesIO(data), engine="h5netcdf", group=None if name == "/" else name) as back:
+                expected = ds.copy()
+                expected.attrs = netcdf_attrs(ds.attrs)
+                xr.testing.assert_identical(back.load(), expected)
+    assert set(task_groups(failed)) == {"/"}

@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from .records import INT8_FILL, LOAD_COORDINATE, decode, encode
+from .netcdf import read_groups
+from .records import INT8_FILL, LOAD_COORDINATE, encode
 
 # integer variables that keep their type (every task has them, or −1 marks a missing one)
 _KEEP_DTYPE = {"status", "branch"}
@@ -31,39 +32,42 @@ class _Group:
         self.study_shape = study_shape
         self.sizes = sizes
         self.arrays: dict[str, tuple[tuple, np.ndarray, dict, bool]] = {}
-        self.index_coords: dict[str, xr.Variable] = {}
+        self.index_coords: dict[str, tuple] = {}
         self.grid: tuple | None = None
         self.grids_differ = False
         self.attrs: dict = {}
 
-    def add(self, position: tuple[int, ...], ds: xr.Dataset) -> None:
-        self.attrs = self.attrs or dict(ds.attrs)
-        if "x" in ds.dims:
-            grid = (ds.sizes["x"], ds.sizes["y"], float(ds["x"][1] - ds["x"][0]) if ds.sizes["x"] > 1 else 0.0)
+    def add(self, position: tuple[int, ...], variables: dict, attrs: dict) -> None:
+        """Place one task's variables and attributes (:func:`~.netcdf.read_groups`) at ``position``."""
+        self.attrs = self.attrs or attrs
+        if "x" in variables:
+            x = variables["x"].values
+            grid = (x.size, variables["y"].values.size, float(x[1] - x[0]) if x.size > 1 else 0.0)
             self.grid = self.grid or grid
             self.grids_differ |= grid != self.grid
-        for name, var in ds.variables.items():
-            if name in ds.dims:
-                if name in ("x", "y") or var.size == self.sizes.get(name, -1):
-                    self.index_coords.setdefault(name, var.copy())
+        for name, var in variables.items():
+            if var.dims == (name,):
+                if name in ("x", "y") or var.values.size == self.sizes.get(name, -1):
+                    self.index_coords.setdefault(name, (var.dims, var.values, var.attrs))
                 continue
-            self._place(name, var, position, is_coord=name in ds.coords)
+            self._place(name, var, position)
 
-    def _place(self, name, var, position, is_coord):
+    def _place(self, name, var, position):
+        values = var.values
         if name not in self.arrays:
-            shape = self.study_shape + tuple(self.sizes.get(d, var.sizes[d]) for d in var.dims)
-            if var.dtype.kind in "iub" and ("x" in var.dims or name in _KEEP_DTYPE):
-                array = np.full(shape, INT8_FILL, dtype=var.dtype)
-            elif var.dtype.kind in "USO":
+            shape = self.study_shape + tuple(self.sizes.get(d, n) for d, n in zip(var.dims, values.shape))
+            if values.dtype.kind in "iub" and ("x" in var.dims or name in _KEEP_DTYPE):
+                array = np.full(shape, INT8_FILL, dtype=values.dtype)
+            elif values.dtype.kind in "USO":
                 array = np.full(shape, "", dtype=object)
             else:
                 array = np.full(shape, np.nan)
-            self.arrays[name] = (var.dims, array, dict(var.attrs), is_coord)
+            self.arrays[name] = (var.dims, array, dict(var.attrs), var.is_coord)
         dims, array, _, _ = self.arrays[name]
-        if var.ndim and any(n > m for n, m in zip(var.shape, array.shape[len(position):])):
+        if values.ndim and any(n > m for n, m in zip(values.shape, array.shape[len(position):])):
             self.grids_differ = True   # a field on a larger grid than the first: kept in the task files
             return
-        array[position + tuple(slice(0, n) for n in var.shape)] = var.values
+        array[position + tuple(slice(0, n) for n in values.shape)] = values
 
     def dataset(self, study_dims: tuple[str, ...], study_coords: dict) -> xr.Dataset:
         data, coords = {}, dict(study_coords)
@@ -94,8 +98,8 @@ def combine(study, paths) -> dict[str, xr.Dataset]:
         sizes.update(Q_over_fP=study.tangential.steps + 1, step=3 * (study.tangential.fretting_steps + 1))
     groups: dict[str, _Group] = {}
     for task in study.tasks():
-        for name, ds in decode(paths[task.index]).items():
-            groups.setdefault(name, _Group(study.shape, sizes)).add(task.position, ds)
+        for name, (variables, attrs) in read_groups(paths[task.index]).items():
+            groups.setdefault(name, _Group(study.shape, sizes)).add(task.position, variables, attrs)
     study_dims = tuple(d.name for d in study.dimensions)
     study_coords = {}
     for dim in study.dimensions:

@@ -11,17 +11,17 @@ coordinates (``xr.open_dataset(path, group="tangential")`` reads one):
 
 Tangential groups keep the full load dimension of ``/`` (NaN, or −1 for
 the int8 zones, at loads without a sweep), so the groups align as a tree.
-Solving and describing stay apart: :mod:`.task` knows nothing of xarray.
+Solving and describing stay apart: :mod:`.task` knows nothing of xarray. Files are
+written and read by :mod:`.netcdf`.
 """
 from __future__ import annotations
 
-import io
 
 import numpy as np
 import xarray as xr
 
 from .. import __version__
-from ..datasets import netcdf_attrs, normal_sweep_dataset, stored_fields
+from ..datasets import normal_sweep_dataset, stored_fields
 from ..tangential.dataset import fretting_dataset, tangential_dataset
 from .task import TaskOutcome
 
@@ -75,26 +75,9 @@ def encode(groups: dict[str, xr.Dataset], target=None):
 
     ``target`` is a path, or None for the file's bytes (what a task sends to rank 0).
     """
-    buffer = io.BytesIO() if target is None else target
-    for name, ds in groups.items():
-        clean = ds.copy()
-        clean.attrs = netcdf_attrs(ds.attrs)
-        clean.to_netcdf(buffer, mode="w" if name == "/" else "a", engine="h5netcdf",
-                        group=None if name == "/" else name, encoding=field_encoding(clean))
-    return buffer.getvalue() if target is None else target
+    from .netcdf import write_groups
 
-
-def decode(path) -> dict[str, xr.Dataset]:
-    """The groups of a file written by :func:`encode`, loaded into memory."""
-    import h5py
-
-    with h5py.File(path, "r") as f:
-        names = ["/"] + [k for k, v in f.items() if isinstance(v, h5py.Group)]
-    out = {}
-    for name in names:
-        with xr.open_dataset(path, engine="h5netcdf", group=None if name == "/" else name) as ds:
-            out[name] = ds.load()
-    return out
+    return write_groups(groups, target, field_encoding)
 
 
 def field_encoding(ds: xr.Dataset) -> dict:
@@ -107,7 +90,7 @@ def field_encoding(ds: xr.Dataset) -> dict:
     for name, var in ds.data_vars.items():
         if var.dims[-2:] == ("x", "y") and var.size:
             chunks = tuple(1 for _ in var.dims[:-2]) + var.shape[-2:]
-            out[name] = {"zlib": True, "complevel": 1, "shuffle": True, "chunksizes": chunks}
+            out[name] = {"compression": "gzip", "compression_opts": 1, "shuffle": True, "chunks": chunks}
     return out
 
 

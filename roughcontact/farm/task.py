@@ -122,23 +122,19 @@ def generators() -> dict[str, Any]:
 
 @contextmanager
 def open_normal_solver(topography: Topography, interface: Interface, comm, options: NormalOptions):
-    """The normal problem of ``topography`` on ``comm`` and its active-set solver, freed on exit.
+    """The normal problem of ``topography`` on ``comm`` and its solver, both freed on exit.
 
-    The one place where ``options.operator`` chooses the flexibility operator
-    (Eq. 10, dense H) and ``options.method`` the inner solver; yields the
-    :class:`~roughcontact.normal.ActiveSetSolver` (``solver.problem`` is the problem).
+    The one place where a study's ``[normal]`` choices reach the solvers:
+    ``options.operator`` names the flexibility operator H (Eq. 10) of
+    :class:`~roughcontact.normal.NormalProblem`, ``options.method`` the solver
+    (:func:`~roughcontact.normal.make_solver`). Yields the solver
+    (``solver.problem`` is the problem).
     """
-    from ..normal import ActiveSetSolver, NormalProblem
+    from ..normal import NormalProblem, make_solver
 
-    if options.operator == "dense":
-        problem = NormalProblem(topography, interface, comm)
-    else:  # pragma: no cover - NormalOptions admits only the operators above
-        raise InputError("normal.operator", f"{options.operator!r} has no builder")
-    try:
-        with ActiveSetSolver(problem, options.method) as solver:
+    with NormalProblem(topography, interface, comm, operator=options.operator) as problem:
+        with make_solver(problem, options.method) as solver:
             yield solver
-    finally:
-        problem.destroy()
 
 
 @dataclass

@@ -241,7 +241,7 @@ class ActiveSetSolver(NormalSolver):
                                       residual=max(state.residual, error)), rigid
             hessian, its = self._hessian(state.active, free)
             linear += its
-            step = _newton_step(hessian, force, units, radius)
+            step = _newton_step(hessian, force, units, radius) * _log_damping(force[0] + target[0], target[0])
             slope = float(force @ step)
             alpha = 1.0
             while True:
@@ -320,6 +320,23 @@ class ActiveSetSolver(NormalSolver):
     def _set_key(self, active: np.ndarray) -> bytes:
         digest = hashlib.sha1(np.packbits(active).tobytes()).digest()
         return b"".join(self.problem.comm.allgather(digest))
+
+def _log_damping(load: float, target: float) -> float:
+    """Scale of the Newton step below the imposed load: the step of Newton on log P.
+
+    P(δz) increases and is convex as the contact set grows (exponential on
+    rough surfaces, δz^1.5 on a sphere), so Newton on P from below overshoots,
+    taking the contact set far past its size at the solution (at 128², 0.05
+    E*: 183 → 5790 nodes, then back to 1490). log P is about linear in δz on
+    rough surfaces and concave on power laws, and Newton on it from below does
+    not overshoot; in one dimension its step is Newton's times
+    P ln(P*/P) / (P* − P) < 1. Above the load, or without contact, Newton's
+    own step is kept (from above it converges monotonically on a convex P).
+    """
+    if not 0.0 < load < target:
+        return 1.0
+    return load * np.log(target / load) / (target - load)
+
 
 def _newton_step(hessian: np.ndarray, force: np.ndarray, units: np.ndarray, radius: float) -> np.ndarray:
     """Newton step on Φ within a trust region, robust to a contact set that cannot fix r yet.

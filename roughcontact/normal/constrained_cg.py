@@ -113,7 +113,7 @@ class ConstrainedCGSolver(NormalSolver):
             raise InputError("settings", f"must be a CGSettings, got {type(settings).__name__}")
         self.settings = settings
         if settings.preconditioner == "fourier":
-            problem.flexibility.precondition(np.zeros(problem.local_size), np.zeros(problem.local_size, bool))
+            problem.flexibility.preconditioner   # built now, collectively, not inside a solve
         coarse_settings = replace(settings, tol=max(settings.tol, COARSE_TOL))
         self.nested = NestedStart(problem, lambda coarse: ConstrainedCGSolver(coarse, coarse_settings)) \
             if nested and NestedStart.applies(problem) else None
@@ -133,81 +133,73 @@ class ConstrainedCGSolver(NormalSolver):
         rigid = rigid.copy()
         rigid[free] = 0.0
         w = pb.interpenetration(rigid)                 # w_fixed: free components of r left out
-        columns = pb.columns[:, free]
-        target = loads[free]
+        constraints = _Constraints(pb, free, loads)
         w_scale = max(float(pb.allmax(np.abs(w).max(initial=0.0))), pb.height_range) or 1.0
         forces = self._start(rigid, free, loads, w, 1.0 / pb.flexibility.diagonal)
         if free:
-            forces = self._restore(forces, columns, target)
+            support = np.flatnonzero(forces > 0.0)
+            forces[support] = constraints.restore(forces[support], support)[0]
         displacement = pb.displacement(forces)
-        direction = np.zeros_like(forces)
+        direction = np.zeros_like(forces)              # zero outside the free set
         previous = None                                # gᵀz of the last iteration, None: restart
-        previous_set = None
+        working = np.zeros(0, dtype=np.intp)           # the free set of the last iteration
         history: list[float] = []
         since_refresh = 0
         for iteration in range(1, settings.max_iterations + 1):
-            contact = forces > 0.0
-            gradient = displacement - w
-            multipliers = self._multipliers(gradient, columns, contact)
-            gap = gradient - columns @ multipliers if free else gradient
-            residual = float(pb.allmax(max(np.abs(gap[contact]).max(initial=0.0),
-                                            -gap[~contact].min(initial=0.0)))) / w_scale
+            contact = np.flatnonzero(forces > 0.0)
+            gap = displacement - w
+            multipliers = constraints.fit(gap[contact], contact)
+            constraints.subtract(gap, multipliers)     # the deformed gap, zero on S at the solution
+            # max(|g| on S, max(−g) off S): −g ≤ |g| on S, so the minimum may run over all nodes
+            residual = float(pb.allmax(max(np.abs(gap[contact]).max(initial=0.0), -gap.min(initial=0.0)))) / w_scale
             history.append(residual)
             if residual <= settings.tol:
                 if since_refresh == 0:
-                    return self._state(forces, contact, gap, iteration, residual, history), \
+                    return self._state(forces, gap, iteration, residual, history), \
                         self._rigid(rigid, free, multipliers)
                 # confirm on an exact H p (the updated one carries the steps' round-off)
                 displacement = pb.displacement(forces)
                 since_refresh = 0
                 continue
-            # the free set: nodes in contact, and nodes off it that interpenetrate (g < 0), which the
+            # the free set F: nodes in contact, and nodes off it that interpenetrate (g < 0), which the
             # step loads along with the others; the rest stay at p = 0
-            working = contact | (gap < 0.0)
-            counts = pb.allsum(np.array([(working != previous_set).sum() if previous_set is not None
-                                         else working.sum(), working.sum()]))
+            last, working = working, np.union1d(contact, np.flatnonzero(gap < 0.0))
+            counts = pb.allsum(np.array([np.setxor1d(last, working, assume_unique=True).size, working.size]))
             if counts[0] > settings.restart * counts[1]:
                 previous = None
-            previous_set = working
-            g = np.where(working, gap, 0.0)
-            z = self._precondition(g, working)
-            if free:
-                z = self._project(z, columns, working)
+            g = gap[working]
+            z = constraints.project(self._precondition(g, working), working)
             gz = float(pb.allsum(g @ z))
-            if previous is None or gz <= 0.0:
-                direction = z
-            else:
-                # the last direction, cut to the current set, may no longer keep the loads: project it
-                direction = np.where(working, z + (gz / previous) * direction, 0.0)
-                if free:
-                    direction = self._project(direction, columns, working)
+            step_direction = z if previous is None or gz <= 0.0 else \
+                constraints.project(z + (gz / previous) * direction[working], working)
             previous = gz
+            direction[last] = 0.0
+            direction[working] = step_direction
             product = pb.displacement(direction)
-            curvature = float(pb.allsum(direction @ product))
+            curvature = float(pb.allsum(step_direction @ product[working]))
             if not curvature > 0.0:
                 raise ConvergenceError(
                     "CG_INDEFINITE", f"iteration {iteration}: dᵀHd = {curvature:.3e} <= 0 on a set of "
                                      f"{int(counts[1])} nodes; the operator is not positive definite there")
             step = gz / curvature
-            trial = forces - step * direction
+            trial = forces[working] - step * step_direction
             leaving = trial < 0.0
             trial[leaving] = 0.0
-            changed = bool(pb.allmax(float(leaving.any())) > 0.0)
-            restored = False
+            cut = bool(pb.allmax(float(leaving.any())) > 0.0)
+            scale = 1.0
             if free:
                 # a step along d keeps Cᵀp = L (d lies in the null space of C_Fᵀ): restoring the
                 # loads then only removes round-off, unless nodes were cut at p = 0
-                before = trial
-                trial = self._restore(trial, columns, target)
-                restored = bool(pb.allmax(float(np.abs(trial - before).max(initial=0.0)))
-                                > 1e-13 * float(pb.allmax(trial.max(initial=0.0))))
+                trial, scale = constraints.restore(trial, working)
+            forces[working] = trial
             since_refresh += 1
-            if changed or restored or since_refresh >= settings.refresh:
-                displacement = pb.displacement(trial)
+            if cut or scale is None or since_refresh >= settings.refresh:
+                displacement = pb.displacement(forces)
                 since_refresh = 0
             else:
-                displacement = displacement - step * product
-            forces = trial
+                displacement -= step * product
+                if scale != 1.0:
+                    displacement *= scale              # H is linear: a uniform rescaling is exact
         raise ConvergenceError(
             "CG_MAX_ITERATIONS",
             f"{settings.max_iterations} bound-constrained CG iterations without meeting tol={settings.tol:g} "
@@ -215,7 +207,7 @@ class ConstrainedCGSolver(NormalSolver):
 
     # ------------------------------------------------------------- helpers
     def _start(self, rigid, free, loads, w, stiffness) -> np.ndarray:
-        """Initial forces: the last solution (warm start) or independent punches (Winkler)."""
+        """Initial forces: the last solution (warm start), a coarse grid's, or independent punches."""
         pb = self.problem
         self.coarse_iterations = 0
         if self.forces is not None and pb.allsum(self.forces.sum()) > 0.0:
@@ -227,56 +219,90 @@ class ConstrainedCGSolver(NormalSolver):
                 return start[0]
         if free:
             rigid = rigid.copy()
-            rigid[0] = self.winkler_approach(rigid, loads[0]) if 0 in free else rigid[0]
+            rigid[0] = self.winkler_approach(rigid, loads[0])
             overlap = pb.interpenetration(rigid)
         else:
             overlap = w
         return np.maximum(overlap, 0.0) * stiffness
 
-    def _precondition(self, g: np.ndarray, active: np.ndarray) -> np.ndarray:
+    def _precondition(self, g: np.ndarray, nodes: np.ndarray) -> np.ndarray:
         if self.settings.preconditioner == "none":
             return g.copy()
-        return self.problem.flexibility.precondition(g, active)
-
-    def _multipliers(self, gradient, columns, active) -> np.ndarray:
-        """Least-squares r_free: C_S r ≈ gradient on S (the gap's mean for one constraint)."""
-        if columns.shape[1] == 0:
-            return np.zeros(0)
-        c = columns[active]
-        k = columns.shape[1]
-        sums = self.problem.allsum(np.concatenate([(c.T @ c).ravel(), c.T @ gradient[active]]))
-        normal, right = sums[:k * k].reshape(k, k), sums[k * k:]
-        return _solve_small(normal, right)
-
-    def _project(self, z, columns, active) -> np.ndarray:
-        """Remove from z (on S) its least-squares fit by C_S: then Cᵀ z = 0 and the loads stay put."""
-        return np.where(active, z - columns @ self._multipliers(z, columns, active), 0.0)
-
-    def _restore(self, forces, columns, target) -> np.ndarray:
-        """Rescale the forces so that Cᵀ p = L exactly: p_i (C λ)_i with Cᵀ diag(p) C λ = L."""
-        pb = self.problem
-        k = columns.shape[1]
-        for _ in range(8):
-            weighted = columns * forces[:, None]
-            normal = pb.allsum((columns.T @ weighted).ravel()).reshape(k, k)
-            if k == 1 and not normal[0, 0] > 0.0:
-                raise ConvergenceError("CG_NO_CONTACT", "every force vanished during the iteration; "
-                                                        "the load cannot be restored")
-            factor = columns @ _solve_small(normal, target)
-            if k == 1 or float(pb.allmin(factor[forces > 0.0].min(initial=np.inf))) >= 0.0:
-                return forces * np.maximum(factor, 0.0)
-            forces = forces * np.maximum(factor, 0.0)  # nodes the moments cannot load leave, then refit
-        raise ConvergenceError("CG_LOAD_POINT", "the imposed moments cannot be carried by compressive forces "
-                                                "on the current contact set")
+        return self.problem.flexibility.precondition_nodes(g, nodes)
 
     def _rigid(self, rigid, free, multipliers) -> np.ndarray:
         out = rigid.copy()
         out[free] = multipliers
         return out
 
-    def _state(self, forces, active, gap, iterations, residual, history) -> ContactState:
-        return ContactState(np.where(active, forces, 0.0), active, np.where(active, 0.0, gap), 1,
-                            iterations, residual, tuple(history))
+    def _state(self, forces, gap, iterations, residual, history) -> ContactState:
+        contact = forces > 0.0
+        gap[contact] = 0.0
+        return ContactState(forces, contact, gap, 1, iterations, residual, tuple(history))
+
+
+class _Constraints:
+    """The load constraints C_freeᵀ p = L_free and their multipliers r_free (Eq. 8).
+
+    Columns of C: 1 (δz, P), −y (θx, Mx), −x (θy, My); all operations are on
+    node subsets (the contact or free set) given by their indices.
+    """
+
+    def __init__(self, problem: NormalProblem, free: list[int], loads: np.ndarray):
+        self.problem = problem
+        self.free = free
+        self.columns = problem.columns[:, free]
+        self.target = loads[free]
+        self.k = len(free)
+
+    def fit(self, values: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+        """Least-squares r with C r ≈ values on ``nodes`` (for one constraint: their mean)."""
+        k = self.k
+        if k == 0:
+            return np.zeros(0)
+        if k == 1:
+            sums = self.problem.allsum(np.array([values.sum(), values.size]))
+            return np.array([sums[0] / sums[1] if sums[1] else 0.0])
+        c = self.columns[nodes]
+        sums = self.problem.allsum(np.concatenate([(c.T @ c).ravel(), c.T @ values]))
+        return _solve_small(sums[:k * k].reshape(k, k), sums[k * k:])
+
+    def subtract(self, gap: np.ndarray, multipliers: np.ndarray) -> None:
+        """gap −= C r on every node, in place (the first column, δz's, is all ones)."""
+        if self.k:
+            gap -= multipliers[0]
+        for column, value in zip(self.columns.T[1:], multipliers[1:]):
+            gap -= value * column
+
+    def project(self, values: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+        """Remove from ``values`` (on ``nodes``) their fit by C: then Cᵀ values = 0, the loads stay put."""
+        if self.k == 0:
+            return values
+        r = self.fit(values, nodes)
+        return values - (r[0] if self.k == 1 else self.columns[nodes] @ r)
+
+    def restore(self, forces: np.ndarray, nodes: np.ndarray):
+        """Forces on ``nodes`` rescaled to Cᵀ p = L exactly, and the scale: a number for one
+        constraint (exact to apply to H p too), None for three (p_i (C λ)_i, Cᵀ diag(p) C λ = L)."""
+        pb, k = self.problem, self.k
+        if k == 1:
+            total = float(pb.allsum(forces.sum()))
+            if not total > 0.0:
+                raise ConvergenceError("CG_NO_CONTACT", "every force vanished during the iteration; "
+                                                        "the load cannot be restored")
+            scale = self.target[0] / total
+            return forces * scale, (1.0 if abs(scale - 1.0) <= 1e-15 else scale)
+        c = self.columns[nodes]
+        for _ in range(8):
+            normal = pb.allsum((c.T @ (c * forces[:, None])).ravel()).reshape(k, k)
+            factor = c @ _solve_small(normal, self.target)
+            loaded = forces > 0.0
+            if float(pb.allmin(factor[loaded].min(initial=np.inf))) >= 0.0:
+                change = float(pb.allmax(np.abs(factor[loaded] - 1.0).max(initial=0.0)))
+                return forces * factor, (1.0 if change <= 1e-13 else None)
+            forces = forces * np.maximum(factor, 0.0)  # nodes the moments cannot load leave, then refit
+        raise ConvergenceError("CG_LOAD_POINT", "the imposed moments cannot be carried by compressive forces "
+                                                "on the current contact set")
 
 
 def _solve_small(matrix: np.ndarray, right: np.ndarray) -> np.ndarray:

@@ -141,7 +141,9 @@ class SlabConvolution:
     # --------------------------------------------------------------- product
     def apply(self, field: np.ndarray) -> np.ndarray:
         """k ⊛ field on this rank's rows: ``field`` and the result have shape (rows, ny)."""
-        return self.backward(self.forward(field) * self.symbol)
+        spectrum = self.forward(field)
+        spectrum *= self.symbol
+        return self.backward(spectrum)
 
     def forward(self, field: np.ndarray) -> np.ndarray:
         """2-D transform of the (padded) field: this rank's frequency columns, (Lx, my columns)."""

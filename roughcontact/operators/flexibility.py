@@ -128,10 +128,20 @@ class Flexibility:
             y.destroy()
             return out
         slab = self.layout.to_slab(values, out=self._slab)
-        return self.convolution.apply(slab)[self.layout.local_mask]
+        return self.layout.from_slab(self.convolution.apply(slab))
 
     def precondition(self, values: np.ndarray, active: np.ndarray) -> np.ndarray:
-        """z = [C⁻¹ (values on S, 0 elsewhere)]_S, 0 off S: the Fourier preconditioner of H_SS."""
+        """z = [C⁻¹ (values on S, 0 elsewhere)]_S, 0 off S: the Fourier preconditioner of H_SS
+        (S given as a mask over this rank's nodes)."""
+        return self.preconditioner.apply(values, active)
+
+    def precondition_nodes(self, values: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+        """The same on S given by this rank's node indices, ``values`` and result on S only."""
+        return self.preconditioner.apply_nodes(values, nodes)
+
+    @property
+    def preconditioner(self):
+        """The Fourier preconditioner of contact-set blocks (:mod:`.preconditioner`), built on first use."""
         if self._preconditioner is None:
             from .preconditioner import FourierPreconditioner
 
@@ -139,7 +149,7 @@ class Flexibility:
                 raise InputError("pc", "the Fourier preconditioner needs an operator built from a "
                                        "topography ('dense', 'fft', 'fft-periodic'), not a user Mat")
             self._preconditioner = FourierPreconditioner(self)
-        return self._preconditioner.apply(values, active)
+        return self._preconditioner
 
     # ---------------------------------------------------------------- blocks
     def explicit_fits(self, count: int) -> bool:

@@ -49,8 +49,10 @@ def influence_rows(kernel: np.ndarray, footprint: np.ndarray, rows: slice,
     """Rows of the flexibility matrix H (Eq. 10) over the footprint nodes.
 
     The row of node (i, j) is the window of the mirrored table whose origin
-    sits on (i, j), read at the footprint's nodes: one strided copy per row,
-    written straight into ``out``.
+    sits on (i, j), read at the footprint's nodes, written straight into
+    ``out``: one strided copy per grid row when its nodes are all wanted and
+    the columns are whole rows (the windows of consecutive nodes are sliding
+    windows of one band of the table), one per node otherwise.
 
     Parameters
     ----------
@@ -75,12 +77,25 @@ def influence_rows(kernel: np.ndarray, footprint: np.ndarray, rows: slice,
     whole = bool(mask.all())
     if out is None:
         out = np.empty((row_nodes.shape[0], int(mask.sum())))
-    for k, (i, j) in enumerate(row_nodes):
+    k = 0
+    while k < row_nodes.shape[0]:
+        i = row_nodes[k, 0]
+        # the rows of all ny nodes of grid row i, when they are all wanted, are one strided view:
+        # windows[j] = ext[.., ny − 1 − j : 2 ny − 1 − j] (sliding windows read backwards)
+        if whole and k + ny <= row_nodes.shape[0] and row_nodes[k, 1] == 0 and row_nodes[k + ny - 1, 1] == ny - 1 \
+                and footprint[i].all():
+            band = ext[nx - 1 - i + c0: nx - 1 - i + c1]
+            windows = np.lib.stride_tricks.sliding_window_view(band, ny, axis=1)[:, ::-1, :]
+            out[k:k + ny].reshape(ny, c1 - c0, ny)[...] = windows.transpose(1, 0, 2)
+            k += ny
+            continue
+        j = row_nodes[k, 1]
         window = ext[nx - 1 - i + c0: nx - 1 - i + c1, ny - 1 - j: 2 * ny - 1 - j]
         if whole:
             out[k].reshape(mask.shape)[...] = window
         else:
             out[k] = window[mask]
+        k += 1
     return out
 
 

@@ -11,6 +11,7 @@ layout, so results do not depend on which operator solved them.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -52,14 +53,27 @@ class NodeLayout:
     def local_size(self) -> int:
         return self.stop - self.start
 
-    @property
+    @cached_property
     def local_mask(self) -> np.ndarray:
         """The footprint on this rank's rows, (rows, ny)."""
         return self.footprint[self.rows[0]:self.rows[1]]
 
+    @cached_property
+    def whole_rows(self) -> bool:
+        """Every node of this rank's rows is in the footprint: vectors are the slab, reshaped."""
+        return bool(self.local_mask.all())
+
+    @cached_property
+    def positions(self) -> np.ndarray:
+        """Flat slab position of each owned node."""
+        return np.flatnonzero(self.local_mask)
+
     def to_slab(self, values: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-        """This rank's rows of the grid with ``values`` (owned nodes) on the footprint, 0 elsewhere."""
+        """This rank's rows of the grid with ``values`` (owned nodes) on the footprint, 0 elsewhere
+        (a view of ``values`` when the rows are whole)."""
         mask = self.local_mask
+        if self.whole_rows:
+            return np.asarray(values).reshape(mask.shape)
         if out is None:
             out = np.zeros(mask.shape)
         else:
@@ -68,7 +82,9 @@ class NodeLayout:
         return out
 
     def from_slab(self, slab: np.ndarray) -> np.ndarray:
-        """The owned nodes' values of a slab field."""
+        """The owned nodes' values of a slab field (a view when the rows are whole)."""
+        if self.whole_rows:
+            return slab.reshape(-1)
         return slab[self.local_mask]
 
     def nodes(self) -> np.ndarray:

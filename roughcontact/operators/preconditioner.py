@@ -60,13 +60,19 @@ class FourierPreconditioner:
         self._slab = np.zeros((self.layout.rows[1] - self.layout.rows[0], shape[1]))
 
     def apply(self, values: np.ndarray, active: np.ndarray) -> np.ndarray:
-        """R_S C⁻¹ R_Sᵀ ``values`` (both over this rank's nodes; zero off S)."""
-        restricted = np.where(active, values, 0.0)
-        slab = self.layout.to_slab(restricted, out=self._slab)
-        smoothed = self.convolution.backward(self.convolution.forward(slab) * self.inverse_symbol)
-        out = self.layout.from_slab(smoothed)
-        out[~active] = 0.0
+        """R_S C⁻¹ R_Sᵀ ``values`` (both over this rank's nodes; zero off S, given as a mask)."""
+        nodes = np.flatnonzero(active)
+        out = np.zeros(active.size)
+        out[nodes] = self.apply_nodes(values[nodes], nodes)
         return out
+
+    def apply_nodes(self, values: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+        """R_S C⁻¹ R_Sᵀ on S given by this rank's node indices; ``values`` and the result on S."""
+        self._slab.fill(0.0)
+        positions = self.layout.positions[nodes]
+        self._slab.reshape(-1)[positions] = values
+        smoothed = self.convolution.backward(self.convolution.forward(self._slab) * self.inverse_symbol)
+        return smoothed.reshape(-1)[positions]
 
 
 def _min():

@@ -72,8 +72,8 @@ def assert_task_matches(groups: dict, combined: dict, study, task) -> None:
 def test_farm_equals_tasks_solved_one_by_one(comm, shared_dir):
     """The combined dataset holds, at each task's place, exactly what solving that task alone
     on one rank gives (bitwise: with one rank per task the arithmetic is the same), whatever
-    the order the farm took the tasks in; and equilibrium holds (Σ p̄ = P to 1e-9, ten times
-    the load-control tolerance, observed ~1e-13)."""
+    the order the farm took the tasks in; and equilibrium holds (Σ p̄ = P to 1e-8, the
+    tolerance load control guarantees, ActiveSetSettings.load_tol)."""
     study = load_study(tiny())
     summary = run_study(study, comm, shared_dir, log=quiet, quiet=True)
     assert summary.exit_code == 0 and summary.solved == 6 and not summary.failed
@@ -83,7 +83,7 @@ def test_farm_equals_tasks_solved_one_by_one(comm, shared_dir):
     assert root.sizes == {"fractal_dimension": 2, "seed": 3, "normal_load": 3, "x": 17, "y": 17}
     assert list(root["seed"].values) == [1, 2, 3]
     np.testing.assert_allclose(root["force"].sum(("x", "y")), np.broadcast_to([2.0, 5.0, 10.0], (2, 3, 3)),
-                               rtol=1e-9)
+                               rtol=1e-8)
     assert root["normal_load"].attrs["units"] == "N" and "load" not in root.variables
     assert (root["status"] == 0).all()
     tasks = study.tasks()
@@ -100,8 +100,9 @@ def test_farm_equals_tasks_solved_one_by_one(comm, shared_dir):
 
 def test_one_or_two_ranks_per_task_agree(comm, shared_dir):
     """Two groups of one rank and one group of two ranks solve the same tasks: the operator
-    rows are split differently, so sums are rounded differently; the states agree to the
-    solver's load tolerance (1e-8 relative) and the contact sets node for node."""
+    rows are split differently, so sums are rounded differently; each state meets its load to
+    the load-control tolerance 1e-8, so the two agree to 2e-8 (δz grows slower than P), and
+    the contact sets node for node."""
     study = load_study(tiny(name="layout", tangential={}))
     if comm.Get_size() % 2:
         with pytest.raises(InputError) as info:
@@ -114,7 +115,7 @@ def test_one_or_two_ranks_per_task_agree(comm, shared_dir):
     assert a.attrs["ranks_per_task"] == 1 and b.attrs["ranks_per_task"] == 2
     np.testing.assert_array_equal(a["contact"], b["contact"])
     for var in ("closure", "contact_fraction", "centroid_x", "mean_pressure"):
-        np.testing.assert_allclose(a[var], b[var], rtol=1e-8)
+        np.testing.assert_allclose(a[var], b[var], rtol=2e-8, err_msg=var)
 
 
 def test_failed_task_is_recorded_and_the_rest_complete(comm, shared_dir, monkeypatch):
@@ -203,9 +204,9 @@ def test_pressures_zip_and_shift_axes(comm, shared_dir):
     assert dict(ds.sizes) == {"levels": 2, "shift": 2, "mean_pressure": 2}
     np.testing.assert_array_equal(ds["spacing"], [2e-4, 1e-4])            # a coordinate on "levels"
     np.testing.assert_array_equal(ds["shift_x"], [1e-4, 3e-4])
-    # P = σ0 A0 to the load tolerance; A0 = (footprint nodes) s²
+    # P = σ0 A0 to the load tolerance (1e-8); A0 = (footprint nodes) s²
     imposed = (ds["mean_pressure"] * ds["nominal_area"]).transpose(*ds["normal_load"].dims)
-    np.testing.assert_allclose(ds["normal_load"], imposed, rtol=1e-9)
+    np.testing.assert_allclose(ds["normal_load"], imposed, rtol=1e-8)
     np.testing.assert_allclose(ds["nominal_area"], ds["footprint_nodes"] * ds["grid_spacing"] ** 2, rtol=1e-15)
     assert "contact" not in ds and "grids differ" in ds.attrs["fields_note"]
     task = xr.open_dataset(TaskStore(shared_dir, "axes").path(3), engine="h5netcdf")

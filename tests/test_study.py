@@ -37,8 +37,8 @@ def test_single_surface_study_is_a_one_task_ensemble(comm, shared_dir):
     with xr.open_dataset(summary.paths["netcdf"], engine="h5netcdf") as ds:
         assert dict(ds.sizes) == {"normal_load": 3, "x": 17, "y": 17}
         np.testing.assert_array_equal(ds["normal_load"], TINY["normal"]["loads"])
-        # equilibrium: Σ p̄ = P (relative 1e-9: the load-control tolerance is 1e-8, reached ~1e-13)
-        np.testing.assert_allclose(ds["force"].sum(("x", "y")), TINY["normal"]["loads"], rtol=1e-9)
+        # equilibrium: Σ p̄ = P to the tolerance load control guarantees (ActiveSetSettings.load_tol)
+        np.testing.assert_allclose(ds["force"].sum(("x", "y")), TINY["normal"]["loads"], rtol=1e-8)
         assert ds["contact"].dtype == np.int8
         assert ds["normal_load"].attrs["units"] == "N" and ds["mean_pressure"].attrs["units"] == "Pa"
         assert ds.attrs["dundurs_beta"] == pytest.approx(0.5 * (1 - 2 * 0.2) / (1 - 0.2))

@@ -28,6 +28,9 @@ from ..errors import InputError, RoughContactError
 #: exit status of a job aborted by an unexpected error on some rank
 ABORT_CODE = 70
 
+#: the interpreter's switch interval (s) on rank 0 while it solves and feeds the other leaders
+SWITCH_INTERVAL = 2e-4
+
 _STATE: dict = {}      # the work function and groups of this process, for tasks sent to it
 
 
@@ -127,8 +130,9 @@ def _feed(executor, tasks, deliver, remote_workers: int, root_works: bool, comm)
 
     def finished(future, task):      # the manager thread, as soon as the leader answers
         try:
-            deliver(task, future.result())
-            submit()
+            result = future.result()
+            submit()                     # the leader's next task leaves when this returns
+            deliver(task, result)
         except BaseException:
             abort(comm, f"roughcontact: rank 0: could not take the result of task {task.index}: "
                         f"{traceback.format_exc()}")
@@ -138,8 +142,15 @@ def _feed(executor, tasks, deliver, remote_workers: int, root_works: bool, comm)
 
     for _ in range(remote_workers):
         submit()
-    while root_works and (task := take()) is not None:
-        deliver(task, _lead(task))
+    # the manager thread needs the interpreter lock to answer a leader; while this thread
+    # solves, it would wait up to the switch interval (5 ms) several times per task
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(SWITCH_INTERVAL)
+    try:
+        while root_works and (task := take()) is not None:
+            deliver(task, _lead(task))
+    finally:
+        sys.setswitchinterval(interval)
     with settled:
         settled.wait_for(lambda: not outstanding and not queue)
 

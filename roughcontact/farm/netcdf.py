@@ -107,19 +107,21 @@ def read_groups(path) -> dict[str, tuple[dict[str, Stored], dict]]:
             for key, dataset in group.items():
                 if isinstance(dataset, h5py.Group):
                     continue
-                attrs = {k: _text(v) for k, v in dataset.attrs.items()}
-                name_attr = attrs.get("NAME", "")
-                if attrs.get("CLASS") == "DIMENSION_SCALE" and name_attr.startswith(_PLACEHOLDER[:20]):
+                keys = set(dataset.attrs.keys())
+                scale = "CLASS" in keys and dataset.is_scale
+                if scale and _text(dataset.attrs["NAME"]).startswith(_PLACEHOLDER[:20]):
                     continue                       # a dimension without a coordinate variable
-                listed.update(str(attrs.get("coordinates", "")).split())
-                if attrs.get("CLASS") == "DIMENSION_SCALE":
+                if "coordinates" in keys:
+                    listed.update(_text(dataset.attrs["coordinates"]).split())
+                if scale:
                     dims = (key,)                  # a coordinate variable is its dimension's scale
                 else:
                     dims = tuple(d[0].name.rsplit("/", 1)[-1] for d in dataset.dims)
                 values = dataset[()]
                 if dataset.dtype.kind == "O":
                     values = np.vectorize(_text, otypes=[object])(np.asarray(values, dtype=object))
-                keep = {k: v for k, v in attrs.items() if not k.startswith("_") and k not in _HDF5_ATTRS}
+                keep = {k: _text(dataset.attrs[k]) for k in keys
+                        if not k.startswith("_") and k not in _HDF5_ATTRS}
                 variables[key] = Stored(dims, np.asarray(values), keep, dims == (key,))
             variables = {k: v._replace(is_coord=v.is_coord or k in listed) for k, v in variables.items()}
             out[name] = (variables, {k: _text(v) for k, v in group.attrs.items() if not k.startswith("_")})

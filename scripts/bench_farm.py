@@ -1,0 +1,160 @@
+#!/usr/bin/env python
+"""Benchmark of the ensemble farm: throughput on 1 and 2 ranks, overhead per task, rank 0's writes.
+
+Two ensembles of random-midpoint surfaces (Δ = 2.3, ν = 0 half-spaces):
+
+- ``small``: 64 tasks of 33 × 33 nodes and 6 loads (tens of ms each), fields "all";
+- ``long``: 16 tasks of 65 × 65 nodes and 32 loads (about a second each), fields "contact".
+
+For each, the farm (``run_study``: checks, the farm, a task file per task,
+the combined dataset and figure) is timed on each rank count, and on one
+rank the bare loop of the same solves (``solve_task`` on COMM_SELF, no
+files). Reported, medians of --repeats runs in one invocation:
+
+- tasks/s = tasks / wall time of the run;
+- overhead per task (ms) = (farm on 1 rank − bare loop) / tasks, for the whole run and for
+  the farm phase alone (tasks solved, encoded and written; without the checks before it and
+  the combined dataset and figure after it, which rank 0 does alone);
+- parallel efficiency on n ranks = wall(1 rank) / (n · wall(n ranks)), whole run and farm phase;
+- rank 0's write throughput = bytes of task files / time rank 0 spends writing them.
+
+    python scripts/bench_farm.py                  # writes results/bench_farm.json
+    python scripts/bench_farm.py --repeats 1      # a quicker look
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from _ranks import add_launch_arguments, emit, run_on_ranks, write_rows
+
+CASES = {
+    "small": {"levels": 5, "seeds": 64, "loads": list(np.linspace(20.0, 120.0, 6)), "fields": "all"},
+    "long": {"levels": 6, "seeds": 16, "loads": list(np.linspace(25.0, 1000.0, 32)), "fields": "contact"},
+}
+
+
+def study_of(name: str) -> dict:
+    case = CASES[name]
+    return {"name": f"bench-{name}",
+            "surface": {"generator": "midpoint", "levels": case["levels"], "spacing": 1e-4, "rms_height": 1e-5,
+                        "fractal_dimension": 2.3},
+            "axes": {"seeds": case["seeds"]},
+            "materials": {"body1": {"E": 20e9, "nu": 0.0}, "body2": {"E": 20e9, "nu": 0.0}},
+            "normal": {"loads": [round(float(p), 3) for p in case["loads"]]},
+            "output": {"fields": case["fields"]}}
+
+
+def worker(args) -> None:
+    from mpi4py import MPI  # first: MPI with threads, as the command line starts it
+    import petsc4py
+
+    petsc4py.init([])
+    from roughcontact.farm import load_study, run_study, solve_task
+    from roughcontact.farm.store import TaskStore
+
+    comm = MPI.COMM_WORLD
+    writes = {"seconds": 0.0, "bytes": 0}
+    store_write = TaskStore.write
+
+    def timed_write(self, index, payload):          # rank 0's writes, as the farm makes them
+        t0 = time.perf_counter()
+        size = store_write(self, index, payload)
+        writes["seconds"] += time.perf_counter() - t0
+        writes["bytes"] += size
+        return size
+
+    TaskStore.write = timed_write
+    import roughcontact.farm.run as run_module
+
+    farm_phase = {"seconds": 0.0}
+    run_farm = run_module.run_farm
+
+    def timed_farm(*a, **k):                          # the farm alone: tasks solved and written
+        t0 = time.perf_counter()
+        run_farm(*a, **k)
+        farm_phase["seconds"] = time.perf_counter() - t0
+
+    run_module.run_farm = timed_farm
+    rows = []
+    for name in args.cases:
+        study = load_study(study_of(name))
+        tasks = study.tasks()
+        walls, farms, written, write_s = [], [], [], []
+        for _ in range(args.repeats):
+            writes.update(seconds=0.0, bytes=0)
+            with tempfile.TemporaryDirectory() as tmp:
+                output = comm.bcast(tmp, root=0)
+                comm.Barrier()
+                t0 = time.perf_counter()
+                summary = run_study(study, comm, output, log=lambda *a: None, quiet=True)
+                comm.Barrier()
+                walls.append(time.perf_counter() - t0)
+                farms.append(comm.allreduce(farm_phase["seconds"], op=MPI.MAX))
+                comm.Barrier()
+            assert summary.solved == len(tasks) and not summary.failed
+            written.append(comm.bcast(writes["bytes"], root=0))
+            write_s.append(comm.bcast(writes["seconds"], root=0))
+        row = {"case": name, "ranks": comm.Get_size(), "tasks": len(tasks),
+               "grid": f"{2 ** CASES[name]['levels'] + 1}^2", "loads": len(study.loads), "fields": study.fields,
+               "wall_s_median": float(np.median(walls)), "tasks_per_s": len(tasks) / float(np.median(walls)),
+               "farm_phase_s_median": float(np.median(farms)),
+               "task_files_MB": float(np.median(written)) / 1e6,
+               "rank0_write_s_median": float(np.median(write_s)),
+               "rank0_write_MB_per_s": float(np.median(written)) / 1e6 / max(float(np.median(write_s)), 1e-9)}
+        if comm.Get_size() == 1:
+            bare = []
+            for _ in range(args.repeats):
+                t0 = time.perf_counter()
+                for task in tasks:
+                    solve_task(task, MPI.COMM_SELF)
+                bare.append(time.perf_counter() - t0)
+            row["bare_loop_s_median"] = float(np.median(bare))
+            row["bare_task_s_median"] = row["bare_loop_s_median"] / len(tasks)
+            row["overhead_ms_per_task"] = 1e3 * (row["wall_s_median"] - row["bare_loop_s_median"]) / len(tasks)
+            row["farm_phase_overhead_ms_per_task"] = (
+                1e3 * (row["farm_phase_s_median"] - row["bare_loop_s_median"]) / len(tasks))
+        emit(comm, rows, row)
+    write_rows(comm, rows, args.json)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
+    add_launch_arguments(parser, repeats=3, output="results/bench_farm.json")
+    args = parser.parse_args()
+    if args.worker:
+        worker(args)
+        return
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")     # one BLAS thread per rank
+    rows = run_on_ranks(__file__, args.ranks, ["--repeats", str(args.repeats), "--cases", *args.cases])
+    summary = []
+    for name in args.cases:
+        by_ranks = {r["ranks"]: r for r in rows if r["case"] == name}
+        one = by_ranks.get(1)
+        for n, row in sorted(by_ranks.items()):
+            if one and n > 1:
+                row["parallel_efficiency"] = one["wall_s_median"] / (n * row["wall_s_median"])
+                row["farm_phase_efficiency"] = one["farm_phase_s_median"] / (n * row["farm_phase_s_median"])
+            summary.append(row)
+            print(f"{name:6s} {n} rank(s): {row['tasks_per_s']:7.2f} tasks/s, wall {row['wall_s_median']:6.2f} s"
+                  + (f", bare task {1e3 * row['bare_task_s_median']:.0f} ms, overhead "
+                     f"{row['overhead_ms_per_task']:.1f} ms/task" if "overhead_ms_per_task" in row else "")
+                  + (f", efficiency {row['parallel_efficiency']:.2f} (farm phase "
+                     f"{row['farm_phase_efficiency']:.2f})" if "parallel_efficiency" in row else "")
+                  + f", rank 0 writes {row['rank0_write_MB_per_s']:.0f} MB/s ({row['task_files_MB']:.1f} MB)")
+    report = {"benchmark": "ensemble farm: run_study on 1 and 2 ranks against a bare serial loop of the solves",
+              "machine": {"cpus": os.cpu_count()}, "repeats": args.repeats, "cases": CASES, "rows": summary}
+    Path(args.output).parent.mkdir(parents=True, exist_ok=True)
+    Path(args.output).write_text(json.dumps(report, indent=1))
+    print(f"wrote {args.output}")
+
+
+if __name__ == "__main__":
+    main()

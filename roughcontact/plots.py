@@ -14,9 +14,9 @@ def contact_area_vs_load(ds: xr.Dataset, path: str | Path, title: str = "") -> P
     """Real contact area fraction A_r/A_0 against load P or σ0 (paper Fig. 5a).
 
     ``ds`` is a study dataset or its :func:`~roughcontact.farm.ensemble_statistics`
-    (a ``statistic`` dimension): then each curve is the ensemble mean with its
-    confidence band. One curve per fractal dimension Δ, or per combination of
-    the other study dimensions.
+    (with ``contact_fraction_lower`` and ``_upper``): then each curve is the
+    ensemble mean with its confidence band. One curve per fractal dimension Δ,
+    or per combination of the other study dimensions.
     """
     import matplotlib
 
@@ -25,19 +25,16 @@ def contact_area_vs_load(ds: xr.Dataset, path: str | Path, title: str = "") -> P
 
     load = next(name for name in LOAD_COORDINATES if name in ds.coords)
     area = ds["contact_fraction"]
-    bands = "statistic" in area.dims
-    others = [d for d in area.dims if d not in (load, "statistic")]
+    bands = "contact_fraction_lower" in ds
+    others = [d for d in area.dims if d != load]
     fig, ax = plt.subplots(figsize=(5.6, 4.0), constrained_layout=True)
     for labels in itertools.product(*(range(area.sizes[d]) for d in others)):
-        curve = area.isel(dict(zip(others, labels)))
-        label = ", ".join(_label(ds, d, i) for d, i in zip(others, labels))
+        where = dict(zip(others, labels))
+        label = ", ".join(_label(ds, d, i) for d, i in where.items())
+        line, = ax.plot(ds[load], area.isel(where), "o-", ms=3, label=label or ("mean" if bands else None))
         if bands:
-            mean = curve.sel(statistic="mean")
-            line, = ax.plot(ds[load], mean, "o-", ms=3, label=label or "mean")
-            ax.fill_between(ds[load], curve.sel(statistic="ci_low"), curve.sel(statistic="ci_high"),
-                            color=line.get_color(), alpha=0.25, lw=0)
-        else:
-            ax.plot(ds[load], curve, "o-", ms=3, label=label or None)
+            ax.fill_between(ds[load], ds["contact_fraction_lower"].isel(where),
+                            ds["contact_fraction_upper"].isel(where), color=line.get_color(), alpha=0.25, lw=0)
     units = ds[load].attrs.get("units", "")
     ax.set_xlabel(f"{ds[load].attrs.get('long_name', load)} [{units}]")
     ax.set_ylabel("real contact area fraction A_r / A_0")
@@ -45,8 +42,10 @@ def contact_area_vs_load(ds: xr.Dataset, path: str | Path, title: str = "") -> P
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
     if others or bands:
-        band = f"mean and {ds.attrs.get('confidence', 0.95):.0%} CI over {ds.attrs.get('over', 'seeds')}"
-        ax.legend(title=band if bands else None, fontsize=8)
+        band = (f"mean and {ds.attrs.get('ensemble_confidence', 0.95):.0%} CI over "
+                f"{int(ds['contact_fraction_samples'].max())} {ds.attrs.get('ensemble_dimension', 'seed')}s"
+                if bands else None)
+        ax.legend(title=band, fontsize=8)
     if title:
         ax.set_title(title, fontsize=10)
     path = Path(path)

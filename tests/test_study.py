@@ -57,6 +57,8 @@ def test_default_study_is_the_ensemble_of_its_file():
     assert study.interface.normal_uncoupled_exact
     assert load_study(ROOT / "studies" / "fractal_ensemble.toml").identity == study.identity
     assert len(load_study(ROOT / "studies" / "fractal_load_sweep.toml").tasks()) == 1
+    joint = load_study(ROOT / "studies" / "rock_joint_shift.toml")
+    assert joint.shape == (5,) and [d.name for d in joint.dimensions] == ["shift"]
 
 
 def test_study_file_with_measured_surface_shift_and_disc(tmp_path):

@@ -130,9 +130,10 @@ def _finish(study: Study, store: TaskStore, attrs: dict, tasks: list) -> dict:
     paths = {"netcdf": write_combined(groups, store.combined), "failed": failed}
     if root.sizes.get(study.load_dim, 0) and root["contact_fraction"].notnull().any():
         shown = ensemble_statistics(root) if root.sizes.get("seed", 1) > 1 else root
+        grid = f", {root.sizes['x']} × {root.sizes['y']} nodes" if "x" in root.sizes else ""
         paths["figure"] = contact_area_vs_load(
             shown, store.output / f"{study.name}_area_vs_load.png",
-            title=f"{study.name}: {math.prod(study.shape)} task(s)")
+            title=f"{study.name}: {math.prod(study.shape)} task(s){grid}")
     return paths
 
 

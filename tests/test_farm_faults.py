@@ -197,3 +197,18 @@ def test_a_raising_rank_aborts_the_job_with_its_message(job, k):
     resumed = job.run("out", "second.log")
     assert resumed.returncode == 0, resumed.stderr
     assert {task for task, _, _ in job.solves("second.log")} == set(range(TASKS)) - set(written)
+
+
+def test_more_ranks_than_cores_is_warned_about(tmp_path, comm):
+    """One rank more than this machine's cores: the run says it is oversubscribed."""
+    if comm.Get_size() > 1:
+        pytest.skip("launches mpiexec itself; run by the serial pass")
+    cores = len(os.sched_getaffinity(0))
+    if cores > 4:
+        pytest.skip(f"{cores + 1} ranks would be a heavy test here")
+    check = ("from mpi4py import MPI; from roughcontact.farm.guards import oversubscription; "
+             "m = oversubscription(MPI.COMM_WORLD); print(m if MPI.COMM_WORLD.rank == 0 else '', flush=True)")
+    run = subprocess.run([str(Path(sys.executable).parent / "mpiexec"), "-n", str(cores + 1), sys.executable,
+                          "-c", check], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert f"{cores + 1} ranks share {cores} core(s)" in run.stdout and "oversubscribed" in run.stdout

@@ -40,10 +40,7 @@ class Groups:
     def __init__(self, comm, size: int):
         from mpi4py import MPI
 
-        ranks = comm.Get_size()
-        if isinstance(size, bool) or not isinstance(size, int) or size < 1 or ranks % size:
-            raise InputError("farm.ranks_per_task", f"{size!r} does not divide the {ranks} rank(s) of the run; "
-                                                    f"use a divisor of {ranks} (or run on a multiple of {size})")
+        group_count(comm.Get_size(), size)
         rank = comm.Get_rank()
         self.comm = comm
         self.size = size
@@ -51,16 +48,20 @@ class Groups:
         self.is_leader = self.group.Get_rank() == 0
         self.leaders = comm.Split(0 if self.is_leader else MPI.UNDEFINED, rank)
 
-    @property
-    def count(self) -> int:
-        return self.comm.Get_size() // self.size
-
     def free(self) -> None:
         from mpi4py import MPI
 
         if self.leaders != MPI.COMM_NULL:
             self.leaders.Free()
         self.group.Free()
+
+
+def group_count(ranks: int, size) -> int:
+    """How many groups of ``size`` ranks ``ranks`` make, or :class:`InputError` unless ``size`` divides it."""
+    if isinstance(size, bool) or not isinstance(size, int) or size < 1 or ranks % size:
+        raise InputError("farm.ranks_per_task", f"{size!r} does not divide the {ranks} rank(s) of the run; "
+                                                f"use a divisor of {ranks} (or run on a multiple of {size})")
+    return ranks // size
 
 
 def run_farm(tasks: list, comm, ranks_per_task: int, work: Callable, deliver: Callable,

@@ -9,6 +9,7 @@ it finishes; the combined dataset is written last.
 from __future__ import annotations
 
 import math
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,7 +18,7 @@ from typing import Callable
 from .. import __version__
 from .combine import combine, write_combined
 from .definition import Study
-from .executor import Groups, on_root, run_farm
+from .executor import group_count, on_root, run_farm
 from .guards import check_operator_memory, oversubscription, storage_estimate, task_size
 from .progress import Progress
 from .records import encode, task_groups
@@ -65,16 +66,14 @@ def run_study(study: Study, comm, output: str | Path, log: Callable = print, qui
     store = TaskStore(output, study.name)
     finished = on_root(comm, _resume, store, study, retry_failed)
     pending = [t for t in tasks if t.index not in finished]
-    groups = Groups(comm, k)        # refuses a k that does not divide the ranks, before any solve
-    count = groups.count
-    groups.free()
+    count = group_count(comm.Get_size(), k)      # refuses a k that does not divide the ranks
     grid, footprint = on_root(comm, _sizes, pending)
     if pending:
         check_operator_memory(study, footprint, comm)
         on_root(comm, lambda: pending[0].topography() and None)   # bad surface arguments, before any solve
     crowded = oversubscription(comm)
-    if crowded:
-        say(f"roughcontact: warning: {crowded}")
+    if crowded and rank == 0:
+        print(f"roughcontact: warning: {crowded}", file=sys.stderr)
     say(f"{study.name}: {len(tasks)} task(s), {len(finished)} already done, {comm.Get_size()} rank(s) in "
         f"{count} group(s) of {k}, operator {study.normal.operator}, method {study.normal.method}")
     if pending:
@@ -128,7 +127,7 @@ def _finish(study: Study, store: TaskStore, attrs: dict, tasks: list) -> dict:
     attrs["tasks_failed"] = len(failed)
     root.attrs = {**attrs, **{k: v for k, v in root.attrs.items() if k.startswith("fields_note")}}
     paths = {"netcdf": write_combined(groups, store.combined), "failed": failed}
-    if root.sizes.get(study.load_dim, 0) and root["contact_fraction"].notnull().any():
+    if "contact_fraction" in root and root["contact_fraction"].notnull().any():
         shown = ensemble_statistics(root) if root.sizes.get("seed", 1) > 1 else root
         grid = f", {root.sizes['x']} × {root.sizes['y']} nodes" if "x" in root.sizes else ""
         paths["figure"] = contact_area_vs_load(

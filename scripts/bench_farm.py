@@ -16,6 +16,8 @@ files). Reported, medians of --repeats runs in one invocation:
   the farm phase alone (tasks solved, encoded and written; without the checks before it and
   the combined dataset and figure after it, which rank 0 does alone);
 - parallel efficiency on n ranks = wall(1 rank) / (n · wall(n ranks)), whole run and farm phase;
+- utilisation = time the ranks spend solving and encoding tasks / (n · farm phase): what the
+  farm's scheduling loses, whatever else shares the machine's cores;
 - rank 0's write throughput = bytes of task files / time rank 0 spends writing them.
 
     python scripts/bench_farm.py                  # writes results/bench_farm.json
@@ -82,13 +84,27 @@ def worker(args) -> None:
         farm_phase["seconds"] = time.perf_counter() - t0
 
     run_module.run_farm = timed_farm
+    busy = {"seconds": 0.0}                         # time this rank spends solving and encoding tasks
+
+    def timed(function):
+        def wrapper(*a, **k):
+            t0 = time.perf_counter()
+            try:
+                return function(*a, **k)
+            finally:
+                busy["seconds"] += time.perf_counter() - t0
+        return wrapper
+
+    run_module.solve_task = timed(run_module.solve_task)
+    run_module.encode = timed(run_module.encode)
     rows = []
     for name in args.cases:
         study = load_study(study_of(name))
         tasks = study.tasks()
-        walls, farms, written, write_s = [], [], [], []
+        walls, farms, written, write_s, utilisation = [], [], [], [], []
         for _ in range(args.repeats):
             writes.update(seconds=0.0, bytes=0)
+            busy["seconds"] = 0.0
             with tempfile.TemporaryDirectory() as tmp:
                 output = comm.bcast(tmp, root=0)
                 comm.Barrier()
@@ -97,6 +113,7 @@ def worker(args) -> None:
                 comm.Barrier()
                 walls.append(time.perf_counter() - t0)
                 farms.append(comm.allreduce(farm_phase["seconds"], op=MPI.MAX))
+                utilisation.append(comm.allreduce(busy["seconds"]) / (comm.Get_size() * farms[-1]))
                 comm.Barrier()
             assert summary.solved == len(tasks) and not summary.failed
             written.append(comm.bcast(writes["bytes"], root=0))
@@ -105,6 +122,7 @@ def worker(args) -> None:
                "grid": f"{2 ** CASES[name]['levels'] + 1}^2", "loads": len(study.loads), "fields": study.fields,
                "wall_s_median": float(np.median(walls)), "tasks_per_s": len(tasks) / float(np.median(walls)),
                "farm_phase_s_median": float(np.median(farms)),
+               "farm_utilisation_median": float(np.median(utilisation)),
                "task_files_MB": float(np.median(written)) / 1e6,
                "rank0_write_s_median": float(np.median(write_s)),
                "rank0_write_MB_per_s": float(np.median(written)) / 1e6 / max(float(np.median(write_s)), 1e-9)}
@@ -148,6 +166,7 @@ def main() -> None:
                      f"{row['overhead_ms_per_task']:.1f} ms/task" if "overhead_ms_per_task" in row else "")
                   + (f", efficiency {row['parallel_efficiency']:.2f} (farm phase "
                      f"{row['farm_phase_efficiency']:.2f})" if "parallel_efficiency" in row else "")
+                  + f", ranks busy {row['farm_utilisation_median']:.0%} of the farm phase"
                   + f", rank 0 writes {row['rank0_write_MB_per_s']:.0f} MB/s ({row['task_files_MB']:.1f} MB)")
     report = {"benchmark": "ensemble farm: run_study on 1 and 2 ranks against a bare serial loop of the solves",
               "machine": {"cpus": os.cpu_count()}, "repeats": args.repeats, "cases": CASES, "rows": summary}

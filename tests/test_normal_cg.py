@@ -206,3 +206,22 @@ def test_unpreconditioned_cg_reaches_the_same_state(comm):
     assert_same_state(plain, fourier)
     assert fourier.linear_iterations < plain.linear_iterations
     problem.destroy()
+
+
+@pytest.mark.parametrize("levels, dimension, seed", [(4, 2.3, 1), (4, 2.5, 2), (5, 2.1, 3), (5, 2.5, 3)])
+def test_free_rotation_at_a_few_contact_nodes(comm, levels, dimension, seed):
+    """Loads so small that 3–6 nodes must surround the load point, rotations free: the CG's
+    Newton on θ reaches the active set's state (these cases made CG iterations with the
+    moments as linear constraints lose their support)."""
+    from roughcontact.surfaces import midpoint_surface
+
+    rock = Interface(Material(20e9, 0.2), Material(20e9, 0.2))
+    topo = midpoint_surface(levels, dimension, spacing=1e-4, rms_height=1e-5, seed=seed)
+    problem = NormalProblem(topo, rock, comm, operator="fft")
+    load = 5e-5 * rock.contact_modulus * topo.nominal_area
+    reference = solve(problem, "ksp", lambda s: s.solve_load(load))
+    result = solve(problem, "cg", lambda s: s.solve_load(load))
+    assert 3 <= reference.contact.sum() <= 12
+    assert_same_state(reference, result)
+    np.testing.assert_allclose(result.rotation, reference.rotation, rtol=1e-6)
+    problem.destroy()

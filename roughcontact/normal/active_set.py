@@ -11,20 +11,9 @@ The rigid-body motion r = (δz, θx, θy) enters through w = C r − gap0
 (displacement control, Eq. 7) or free with its conjugate load imposed (load
 control, Eq. 8: P, Mx, My).
 
-Load control is a damped Newton iteration on the free components of r,
-each step a displacement-controlled active-set solve. It minimises the
-convex function
-
-    Φ(r) = max_{p ≥ 0} [pᵀ w(r) − ½ pᵀ H p] − r_freeᵀ L_free = ½ p*ᵀ w − r_freeᵀ L_free,
-
-whose gradient is the load residual F = C_freeᵀ p* − L_free and whose
-Hessian on the contact set S is C_Sᵀ H_SS⁻¹ C_S (|free| extra solves on S).
-On a fixed S, p is linear in r, so the step is exact once S has settled.
-Far from it, a trust region bounds the step (and steers it along directions
-the contact set does not stiffen yet), and an Armijo line search on Φ, or a
-halving of the load residual near the solution where Φ's decrease drowns in
-round-off, accepts it. Updating S and r together instead, as a single active
-set, cycles on rough surfaces with free rotations (see the tests).
+Load control is a damped Newton iteration on the free components of r
+(:mod:`.rigid_motion`), each step a displacement-controlled active-set solve,
+its Hessian C_Sᵀ H_SS⁻¹ C_S from |free| extra inner solves on S.
 
 Failure is never silent: an inner solve that diverges, an active set that
 revisits an earlier set (cycling) or exceeds its iteration limit, a line
@@ -41,6 +30,7 @@ import numpy as np
 from ..errors import ConvergenceError, InputError
 from .problem import NormalProblem
 from .result import NormalResult
+from .rigid_motion import newton_on_motion
 from .solver import ContactState, NormalSolver, make_solver
 
 
@@ -132,7 +122,15 @@ class ActiveSetSolver(NormalSolver):
     def _solve(self, rigid, free, loads):
         if not free:
             return self._displacement(rigid), rigid
-        return self._load_newton(rigid, free, loads)
+        if self.active is not None:
+            rigid[free] = self.rigid[free]                   # warm start of the unknown motion
+        else:
+            rigid[free] = 0.0
+            rigid[0] = self.winkler_approach(rigid, loads[0])
+        return newton_on_motion(self.problem, rigid, free, free, loads,
+                                evaluate=lambda r: (self._displacement(r), r),
+                                stiffness=lambda active: self._hessian(active, free),
+                                load_tol=self.settings.load_tol, max_newton=self.settings.max_newton)
 
     # -- displacement control: the paper's active set -------------------------------
     def _displacement(self, rigid: np.ndarray) -> ContactState:
@@ -214,73 +212,6 @@ class ActiveSetSolver(NormalSolver):
         threshold = np.partition(depth, cap - 1)[cap - 1]
         return penetration & (gap <= threshold)
 
-    # -- load control: damped Newton on the free rigid motion -------------------------
-    def _load_newton(self, rigid, free, loads):
-        pb, settings = self.problem, self.settings
-        target = loads[free]
-        # residual scales: P for the load, P times the footprint's half-size for moments
-        extent = pb.extent
-        scale = np.array([loads[0], loads[0] * extent, loads[0] * extent])[free]
-        if self.active is not None:
-            rigid[free] = self.rigid[free]                   # warm start of the unknown motion
-        else:
-            rigid[free] = 0.0
-            rigid[0] = self.winkler_approach(rigid, loads[0])
-        # step units: approach h, rotations h / extent; the trust radius is in these units
-        height = max(pb.height_range, abs(rigid[0]), 1e-12 * extent)
-        units = np.array([height, height / extent, height / extent])[free]
-        radius = 1.0
-        history: list[float] = []
-        state, phi, force = self._evaluate(rigid, free, target)
-        outer, linear = state.outer, state.linear
-        for newton in range(1, settings.max_newton + 1):
-            error = float(np.max(np.abs(force) / scale))
-            history.append(error)
-            if error <= settings.load_tol:
-                return state._replace(outer=outer, linear=linear, history=tuple(history),
-                                      residual=max(state.residual, error)), rigid
-            hessian, its = self._hessian(state.active, free)
-            linear += its
-            step = _newton_step(hessian, force, units, radius) * _log_damping(force[0] + target[0], target[0])
-            slope = float(force @ step)
-            alpha = 1.0
-            while True:
-                trial = rigid.copy()
-                trial[free] = rigid[free] + alpha * step
-                t_state, t_phi, t_force = self._evaluate(trial, free, target)
-                outer += t_state.outer
-                linear += t_state.linear
-                # Armijo on Φ; near the solution Φ's decrease is below its round-off, and a
-                # decrease of the load residual itself is accepted instead
-                if (t_phi <= phi + 1e-4 * alpha * slope
-                        or np.max(np.abs(t_force) / scale) <= 0.5 * error or alpha < 1e-6):
-                    break
-                alpha *= 0.5
-            if alpha < 1e-6:
-                raise ConvergenceError(
-                    "LOAD_CONTROL_LINE_SEARCH",
-                    f"Newton step {newton} on the rigid motion found no decrease of the "
-                    f"complementary energy nor of the load residual ({error:.3e}); the contact "
-                    "state is resolved more coarsely than load_tol: loosen it")
-            moved = float(np.max(np.abs(alpha * step) / units))
-            radius = 4.0 * radius if alpha == 1.0 and moved >= 0.99 * radius else max(moved, 1e-3)
-            rigid, state, phi, force = trial, t_state, t_phi, t_force
-        raise ConvergenceError(
-            "LOAD_CONTROL_MAX_ITERATIONS",
-            f"{settings.max_newton} Newton steps on the rigid motion without meeting "
-            f"load_tol={settings.load_tol:g} (last relative load residual {history[-1]:.3e}); "
-            "raise ActiveSetSettings.max_newton")
-
-    def _evaluate(self, rigid, free, target):
-        """Displacement solve at r; Φ(r) and its gradient F = C_freeᵀ p − L_free."""
-        pb = self.problem
-        state = self._displacement(rigid)
-        w = pb.interpenetration(rigid)
-        sums = pb.allsum(np.append(pb.columns[:, free].T @ state.pressure, 0.5 * state.pressure @ w))
-        force = sums[:-1] - target
-        phi = float(sums[-1] - rigid[free] @ target)
-        return state, phi, force
-
     def _hessian(self, active, free):
         """C_Sᵀ H_SS⁻¹ C_S for the free components (|free| solves on the set S)."""
         pb = self.problem
@@ -320,49 +251,6 @@ class ActiveSetSolver(NormalSolver):
     def _set_key(self, active: np.ndarray) -> bytes:
         digest = hashlib.sha1(np.packbits(active).tobytes()).digest()
         return b"".join(self.problem.comm.allgather(digest))
-
-def _log_damping(load: float, target: float) -> float:
-    """Scale of the Newton step below the imposed load: the step of Newton on log P.
-
-    P(δz) increases and is convex as the contact set grows (exponential on
-    rough surfaces, δz^1.5 on a sphere), so Newton on P from below overshoots,
-    taking the contact set far past its size at the solution (at 128², 0.05
-    E*: 183 → 5790 nodes, then back to 1490). log P is about linear in δz on
-    rough surfaces and concave on power laws, and Newton on it from below does
-    not overshoot; in one dimension its step is Newton's times
-    P ln(P*/P) / (P* − P) < 1. Above the load, or without contact, Newton's
-    own step is kept (from above it converges monotonically on a convex P).
-    """
-    if not 0.0 < load < target:
-        return 1.0
-    return load * np.log(target / load) / (target - load)
-
-
-def _newton_step(hessian: np.ndarray, force: np.ndarray, units: np.ndarray, radius: float) -> np.ndarray:
-    """Newton step on Φ within a trust region, robust to a contact set that cannot fix r yet.
-
-    In coordinates u = dr / units the step solves the Newton system on the
-    range of the Hessian; along directions the contact set does not stiffen
-    yet (no node touches, or too few to fix a rotation), Φ is linear, and the
-    step follows its descent direction. The step is then limited to
-    |u|∞ ≤ radius.
-    """
-    gradient = force * units
-    matrix = hessian * np.outer(units, units)
-    values, vectors = np.linalg.eigh(matrix)
-    stiff = values > 1e-10 * max(values.max(initial=0.0), 0.0) if values.max(initial=0.0) > 0 else \
-        np.zeros(values.size, bool)
-    step = -(vectors[:, stiff] @ ((vectors[:, stiff].T @ gradient) / values[stiff]))
-    soft = vectors[:, ~stiff]
-    if soft.size:
-        descent = -(soft @ (soft.T @ gradient))
-        if np.abs(descent).max() > 0.0:
-            step += radius * descent / np.abs(descent).max()
-    longest = np.abs(step).max()
-    if longest > radius:
-        step *= radius / longest
-    return step * units
-
 
 def _increasing(name: str, values) -> np.ndarray:
     arr = np.asarray(values, dtype=float).ravel()

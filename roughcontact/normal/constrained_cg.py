@@ -2,46 +2,48 @@
 
 The discrete normal contact problem (Eqs. 7–11) is the quadratic program
 
-    min ½ pᵀ H p − pᵀ w_fixed    subject to   p ≥ 0,   C_freeᵀ p = L_free,
+    min ½ pᵀ H p − pᵀ w_fixed    subject to   p ≥ 0  (and Σ p = P under load control),
 
 where w_fixed = C_fixed r_fixed − gap0 collects the imposed components of
-the rigid motion r = (δz, θx, θy), C = [1, −y, −x] (Eq. 8) and L_free the
-loads conjugate to the free components. Its Lagrange multipliers are the
-free components of r, and its optimality conditions are exactly the contact
-conditions: the deformed gap g = H p − w_fixed − C_free r_free is zero where
-p > 0 and non-negative where p = 0 (Eqs. 7a/7b). Displacement control has
-no constraint, load control with a fixed rotation one (ΣP, Polonsky & Keer's
-case), load control with free rotation three (P, Mx, My).
+the rigid motion r = (δz, θx, θy) (Eq. 7). Under load control the approach
+δz is the Lagrange multiplier of Σ p = P, and the optimality conditions are
+exactly the contact conditions: the deformed gap g = H p − w_fixed − δz is
+zero where p > 0 and non-negative where p = 0 (Eqs. 7a/7b).
 
-The iteration is Polonsky & Keer's constrained conjugate gradient, with a
-preconditioner and with the load constraints generalised from ΣP to Cᵀp:
+The iteration is Polonsky & Keer's constrained conjugate gradient with a
+preconditioner:
 
-1. on the current contact set S = {p > 0}, the multipliers r_free are the
-   least-squares fit of the gradient H p − w_fixed by the columns C_free on
-   S, and the gap g is the remainder;
-2. the search direction is the preconditioned, projected gap
-   z = Π M Π g (Π: orthogonal projection on S onto Cᵀ z = 0; M: the Fourier
-   preconditioner of the contact set, :mod:`~roughcontact.operators.preconditioner`),
-   made conjugate to the previous one unless S changed;
+1. on the current contact set S = {p > 0}, δz is the mean of H p − w_fixed
+   over S and the gap g the remainder;
+2. the free set F is S and the nodes outside it that interpenetrate
+   (g < 0); the search direction is the preconditioned gap on F,
+   z = M g (M: the Fourier preconditioner of the set,
+   :mod:`~roughcontact.operators.preconditioner`), with its mean over F
+   removed so that Σ p stays P, made conjugate to the previous one unless F
+   changed by more than a fraction ``restart``;
 3. the step α = gᵀz / dᵀHd (one FFT product per iteration), then
-   p ← max(p − α d, 0); nodes outside S that interpenetrate (g < 0) enter
-   with the force that closes their gap alone, −g_i / H_ii, and the
-   conjugacy restarts;
-4. the loads are restored exactly: p ← p · P/Σp for one constraint; for
-   three, p_i ← p_i (C λ)_i with the 3 × 3 system Cᵀ diag(p) C λ = L.
+   p ← max(p − α d, 0) on F: interpenetrating nodes are loaded by the same
+   preconditioned step as the others (giving each the force that would close
+   its own gap alone overloads fronts of entering nodes and makes
+   warm-started solves oscillate);
+4. the load is restored exactly, p ← p · P/Σp.
+
+Load control with free rotation (imposed moments) is a Newton iteration on
+(θx, θy) around this solve (:mod:`.rigid_motion`, whose Hessian needs three
+Krylov solves on the contact set): imposing the moments as two more linear
+constraints inside the CG loses the support at small loads, where a handful
+of nodes must surround the load point.
 
 It stops when the residual of the contact conditions,
 max(|g| on S, max(−g) off S) / (scale of w), is at most ``tol`` (the same
-measure and default as the active-set solver), and raises
-:class:`~roughcontact.errors.ConvergenceError` when it cannot: the
-iteration limit, a loss of positive curvature (dᵀHd ≤ 0), or a load that
-the footprint cannot carry with p ≥ 0.
+measure and default as the active-set solver), confirmed on an exactly
+recomputed H p, and raises :class:`~roughcontact.errors.ConvergenceError`
+when it cannot: the iteration limit, or a loss of positive curvature.
 
 References: I.A. Polonsky, L.M. Keer, Wear 231 (1999) 206–219;
 E.A.H. Vollebregt, J. Comput. Phys. 257 (2014) 333–351 (preconditioning the
-contact set with FFTs); N.I.M. Gould, M.E. Hribar, J. Nocedal, SIAM J. Sci.
-Comput. 23 (2001) 1376–1395 (projected preconditioned CG for equality
-constraints).
+contact set with FFTs); J.J. Moré, G. Toraldo, SIAM J. Optim. 1 (1991)
+93–113 (the free set of bound-constrained CG).
 """
 from __future__ import annotations
 
@@ -52,6 +54,7 @@ import numpy as np
 from ..errors import ConvergenceError, InputError
 from .nested import COARSE_TOL, NestedStart
 from .problem import NormalProblem
+from .rigid_motion import newton_on_motion
 from .solver import ContactState, NormalSolver
 
 PRECONDITIONERS = ("fourier", "none")
@@ -78,6 +81,9 @@ class CGSettings:
         into preconditioned steepest descent; never restarting loses
         conjugacy when S changes a lot. 0.05 took the fewest iterations on
         self-affine surfaces from 256² to 1024² (scripts/bench_normal_large.py).
+    load_tol, max_newton
+        Free rotation: the moment residual allowed (relative to P times the
+        footprint's half-size) and the Newton steps on (θx, θy) (:mod:`.rigid_motion`).
     """
 
     tol: float = 1e-8
@@ -85,6 +91,8 @@ class CGSettings:
     preconditioner: str = "fourier"
     refresh: int = 50
     restart: float = 0.05
+    load_tol: float = 1e-8
+    max_newton: int = 50
 
     def __post_init__(self):
         if self.preconditioner not in PRECONDITIONERS:
@@ -117,6 +125,7 @@ class ConstrainedCGSolver(NormalSolver):
         coarse_settings = replace(settings, tol=max(settings.tol, COARSE_TOL))
         self.nested = NestedStart(problem, lambda coarse: ConstrainedCGSolver(coarse, coarse_settings)) \
             if nested and NestedStart.applies(problem) else None
+        self._krylov = None                            # Krylov solves of the Hessian, free rotation
 
     @property
     def description(self) -> str:
@@ -126,19 +135,40 @@ class ConstrainedCGSolver(NormalSolver):
     def _release(self) -> None:
         if self.nested is not None:
             self.nested.destroy()
+        if self._krylov is not None:
+            self._krylov.destroy()
 
     # ---------------------------------------------------------------- solve
     def _solve(self, rigid, free, loads):
+        forces, motion = self._start(rigid, free, loads)
+        if len(free) <= 1:
+            return self._constrained_cg(rigid, free, loads, forces)
+        # free rotation: Newton on (θx, θy), each evaluation a load-controlled solve at fixed θ
+        rigid[free] = motion[free]
+        state = {"forces": forces}
+
+        def evaluate(motion):
+            # the moments must be resolved below load_tol: the inner solves are 100 times tighter
+            result, motion = self._constrained_cg(motion, [0], loads, state["forces"],
+                                                  tol=min(self.settings.tol, 1e-2 * self.settings.load_tol))
+            state["forces"] = result.pressure.copy()
+            return result, motion
+
+        return newton_on_motion(self.problem, rigid, free, [1, 2], loads, evaluate, self._stiffness,
+                                load_tol=self.settings.load_tol, max_newton=self.settings.max_newton)
+
+    def _constrained_cg(self, rigid, free, loads, forces, tol: float | None = None):
+        """The bound-constrained CG with δz imposed (``free`` = []) or found from P (``free`` = [0])."""
         pb, settings = self.problem, self.settings
+        tol = settings.tol if tol is None else tol
         rigid = rigid.copy()
         rigid[free] = 0.0
-        w = pb.interpenetration(rigid)                 # w_fixed: free components of r left out
-        constraints = _Constraints(pb, free, loads)
+        w = pb.interpenetration(rigid)                 # w_fixed: δz left out under load control
+        load = loads[0] if free else None
         w_scale = max(float(pb.allmax(np.abs(w).max(initial=0.0))), pb.height_range) or 1.0
-        forces = self._start(rigid, free, loads, w, 1.0 / pb.flexibility.diagonal)
-        if free:
-            support = np.flatnonzero(forces > 0.0)
-            forces[support] = constraints.restore(forces[support], support)[0]
+        forces = forces.copy()
+        if load is not None:
+            forces *= _load_scale(pb, forces, load)
         displacement = pb.displacement(forces)
         direction = np.zeros_like(forces)              # zero outside the free set
         previous = None                                # gᵀz of the last iteration, None: restart
@@ -148,30 +178,35 @@ class ConstrainedCGSolver(NormalSolver):
         for iteration in range(1, settings.max_iterations + 1):
             contact = np.flatnonzero(forces > 0.0)
             gap = displacement - w
-            multipliers = constraints.fit(gap[contact], contact)
-            constraints.subtract(gap, multipliers)     # the deformed gap, zero on S at the solution
+            approach = _mean(pb, gap[contact]) if load is not None else 0.0
+            gap -= approach                            # the deformed gap, zero on S at the solution
             # max(|g| on S, max(−g) off S): −g ≤ |g| on S, so the minimum may run over all nodes
-            residual = float(pb.allmax(max(np.abs(gap[contact]).max(initial=0.0), -gap.min(initial=0.0)))) / w_scale
+            residual = float(pb.allmax(max(np.abs(gap[contact]).max(initial=0.0),
+                                            -gap.min(initial=0.0)))) / w_scale
             history.append(residual)
-            if residual <= settings.tol:
+            if residual <= tol:
                 if since_refresh == 0:
-                    return self._state(forces, gap, iteration, residual, history), \
-                        self._rigid(rigid, free, multipliers)
+                    rigid[free] = approach
+                    return self._state(forces, gap, iteration, residual, history), rigid
                 # confirm on an exact H p (the updated one carries the steps' round-off)
                 displacement = pb.displacement(forces)
                 since_refresh = 0
                 continue
-            # the free set F: nodes in contact, and nodes off it that interpenetrate (g < 0), which the
-            # step loads along with the others; the rest stay at p = 0
             last, working = working, np.union1d(contact, np.flatnonzero(gap < 0.0))
             counts = pb.allsum(np.array([np.setxor1d(last, working, assume_unique=True).size, working.size]))
             if counts[0] > settings.restart * counts[1]:
                 previous = None
             g = gap[working]
-            z = constraints.project(self._precondition(g, working), working)
+            z = self._precondition(g, working)
+            if load is not None:
+                z -= _mean(pb, z)                      # keep Σ p = P along the direction
             gz = float(pb.allsum(g @ z))
-            step_direction = z if previous is None or gz <= 0.0 else \
-                constraints.project(z + (gz / previous) * direction[working], working)
+            if previous is None or gz <= 0.0:
+                step_direction = z
+            else:
+                step_direction = z + (gz / previous) * direction[working]
+                if load is not None:
+                    step_direction -= _mean(pb, step_direction)
             previous = gz
             direction[last] = 0.0
             direction[working] = step_direction
@@ -185,55 +220,63 @@ class ConstrainedCGSolver(NormalSolver):
             trial = forces[working] - step * step_direction
             leaving = trial < 0.0
             trial[leaving] = 0.0
-            cut = bool(pb.allmax(float(leaving.any())) > 0.0)
-            scale = 1.0
-            if free:
-                # a step along d keeps Cᵀp = L (d lies in the null space of C_Fᵀ): restoring the
-                # loads then only removes round-off, unless nodes were cut at p = 0
-                trial, scale = constraints.restore(trial, working)
             forces[working] = trial
+            cut = bool(pb.allmax(float(leaving.any())) > 0.0)
+            scale = _load_scale(pb, forces[working], load) if load is not None else 1.0
+            forces[working] *= scale
             since_refresh += 1
-            if cut or scale is None or since_refresh >= settings.refresh:
+            if cut or since_refresh >= settings.refresh:
                 displacement = pb.displacement(forces)
                 since_refresh = 0
             else:
                 displacement -= step * product
-                if scale != 1.0:
-                    displacement *= scale              # H is linear: a uniform rescaling is exact
+                displacement *= scale                  # H is linear: a uniform rescaling is exact
         raise ConvergenceError(
             "CG_MAX_ITERATIONS",
-            f"{settings.max_iterations} bound-constrained CG iterations without meeting tol={settings.tol:g} "
+            f"{settings.max_iterations} bound-constrained CG iterations without meeting tol={tol:g} "
             f"(last residual {history[-1]:.3e}); raise CGSettings.max_iterations or loosen tol")
 
+    def _stiffness(self, active: np.ndarray):
+        """C_Sᵀ H_SS⁻¹ C_S for (δz, θx, θy): three Krylov solves on the contact set S."""
+        pb = self.problem
+        if pb.allsum(active.sum()) == 0:
+            return np.zeros((3, 3)), 0
+        if self._krylov is None:
+            from .petsc import KSPSubsolver
+
+            self._krylov = KSPSubsolver(pb.flexibility, prefix="normal_rotation_")
+        self._krylov.set_active(active)
+        columns = pb.columns[active]
+        basis = np.empty_like(columns)
+        its = 0
+        for j in range(3):
+            basis[:, j], count = self._krylov.solve(columns[:, j], np.zeros(columns.shape[0]))
+            its += count
+        return pb.allsum(columns.T @ basis), its
+
     # ------------------------------------------------------------- helpers
-    def _start(self, rigid, free, loads, w, stiffness) -> np.ndarray:
-        """Initial forces: the last solution (warm start), a coarse grid's, or independent punches."""
+    def _start(self, rigid, free, loads) -> tuple[np.ndarray, np.ndarray]:
+        """Initial forces and rigid motion: the last solution (warm start), a coarse grid's
+        (:mod:`.nested`), or independent punches at the Winkler approach."""
         pb = self.problem
         self.coarse_iterations = 0
         if self.forces is not None and pb.allsum(self.forces.sum()) > 0.0:
-            return self.forces.copy()
+            return self.forces.copy(), self.rigid.copy()
         if self.nested is not None:
             start = self.nested.start(rigid, free, loads)
             if start is not None and pb.allsum(start[0].sum()) > 0.0:
                 self.coarse_iterations = self.nested.iterations
-                return start[0]
+                return start[0], start[2]
+        rigid = rigid.copy()
         if free:
-            rigid = rigid.copy()
+            rigid[free] = 0.0
             rigid[0] = self.winkler_approach(rigid, loads[0])
-            overlap = pb.interpenetration(rigid)
-        else:
-            overlap = w
-        return np.maximum(overlap, 0.0) * stiffness
+        return np.maximum(pb.interpenetration(rigid), 0.0) / pb.flexibility.diagonal, rigid
 
     def _precondition(self, g: np.ndarray, nodes: np.ndarray) -> np.ndarray:
         if self.settings.preconditioner == "none":
             return g.copy()
         return self.problem.flexibility.precondition_nodes(g, nodes)
-
-    def _rigid(self, rigid, free, multipliers) -> np.ndarray:
-        out = rigid.copy()
-        out[free] = multipliers
-        return out
 
     def _state(self, forces, gap, iterations, residual, history) -> ContactState:
         contact = forces > 0.0
@@ -241,71 +284,16 @@ class ConstrainedCGSolver(NormalSolver):
         return ContactState(forces, contact, gap, 1, iterations, residual, tuple(history))
 
 
-class _Constraints:
-    """The load constraints C_freeᵀ p = L_free and their multipliers r_free (Eq. 8).
-
-    Columns of C: 1 (δz, P), −y (θx, Mx), −x (θy, My); all operations are on
-    node subsets (the contact or free set) given by their indices.
-    """
-
-    def __init__(self, problem: NormalProblem, free: list[int], loads: np.ndarray):
-        self.problem = problem
-        self.free = free
-        self.columns = problem.columns[:, free]
-        self.target = loads[free]
-        self.k = len(free)
-
-    def fit(self, values: np.ndarray, nodes: np.ndarray) -> np.ndarray:
-        """Least-squares r with C r ≈ values on ``nodes`` (for one constraint: their mean)."""
-        k = self.k
-        if k == 0:
-            return np.zeros(0)
-        if k == 1:
-            sums = self.problem.allsum(np.array([values.sum(), values.size]))
-            return np.array([sums[0] / sums[1] if sums[1] else 0.0])
-        c = self.columns[nodes]
-        sums = self.problem.allsum(np.concatenate([(c.T @ c).ravel(), c.T @ values]))
-        return _solve_small(sums[:k * k].reshape(k, k), sums[k * k:])
-
-    def subtract(self, gap: np.ndarray, multipliers: np.ndarray) -> None:
-        """gap −= C r on every node, in place (the first column, δz's, is all ones)."""
-        if self.k:
-            gap -= multipliers[0]
-        for column, value in zip(self.columns.T[1:], multipliers[1:]):
-            gap -= value * column
-
-    def project(self, values: np.ndarray, nodes: np.ndarray) -> np.ndarray:
-        """Remove from ``values`` (on ``nodes``) their fit by C: then Cᵀ values = 0, the loads stay put."""
-        if self.k == 0:
-            return values
-        r = self.fit(values, nodes)
-        return values - (r[0] if self.k == 1 else self.columns[nodes] @ r)
-
-    def restore(self, forces: np.ndarray, nodes: np.ndarray):
-        """Forces on ``nodes`` rescaled to Cᵀ p = L exactly, and the scale: a number for one
-        constraint (exact to apply to H p too), None for three (p_i (C λ)_i, Cᵀ diag(p) C λ = L)."""
-        pb, k = self.problem, self.k
-        if k == 1:
-            total = float(pb.allsum(forces.sum()))
-            if not total > 0.0:
-                raise ConvergenceError("CG_NO_CONTACT", "every force vanished during the iteration; "
-                                                        "the load cannot be restored")
-            scale = self.target[0] / total
-            return forces * scale, (1.0 if abs(scale - 1.0) <= 1e-15 else scale)
-        c = self.columns[nodes]
-        for _ in range(8):
-            normal = pb.allsum((c.T @ (c * forces[:, None])).ravel()).reshape(k, k)
-            factor = c @ _solve_small(normal, self.target)
-            loaded = forces > 0.0
-            if float(pb.allmin(factor[loaded].min(initial=np.inf))) >= 0.0:
-                change = float(pb.allmax(np.abs(factor[loaded] - 1.0).max(initial=0.0)))
-                return forces * factor, (1.0 if change <= 1e-13 else None)
-            forces = forces * np.maximum(factor, 0.0)  # nodes the moments cannot load leave, then refit
-        raise ConvergenceError("CG_LOAD_POINT", "the imposed moments cannot be carried by compressive forces "
-                                                "on the current contact set")
+def _mean(problem: NormalProblem, values: np.ndarray) -> float:
+    """Mean over all ranks of a distributed set of values (0 for an empty set)."""
+    total, count = problem.allsum(np.array([values.sum(), values.size]))
+    return float(total / count) if count else 0.0
 
 
-def _solve_small(matrix: np.ndarray, right: np.ndarray) -> np.ndarray:
-    """Solve a k × k system (k ≤ 3), least squares if it is singular (too few nodes to fix a rotation)."""
-    solution, *_ = np.linalg.lstsq(matrix, right, rcond=1e-12)
-    return solution
+def _load_scale(problem: NormalProblem, forces: np.ndarray, load: float) -> float:
+    """P / Σ p: the rescaling that restores the load exactly (Polonsky & Keer)."""
+    total = float(problem.allsum(forces.sum()))
+    if not total > 0.0:
+        raise ConvergenceError("CG_NO_CONTACT", "every force vanished during the iteration; "
+                                                "the load cannot be restored")
+    return load / total

@@ -81,8 +81,17 @@ def _run(args, comm) -> int:
     return summary.exit_code
 
 
+def _analyse_parser(sub) -> None:
+    from .analysis import command as analyse
+
+    parser = sub.add_parser("analyse", help="measure the contact domains of a study's results (docs/analysis.md)",
+                            description=analyse.__doc__.split("\n")[0])
+    analyse.add_arguments(parser)
+    parser.set_defaults(handler=analyse.run)
+
+
 #: the subcommands: each adds its parser (with ``handler(args, comm) -> exit status``) to ``sub``
-SUBCOMMANDS = (_run_parser,)
+SUBCOMMANDS = (_run_parser, _analyse_parser)
 
 
 def main(argv: list[str] | None = None) -> int:

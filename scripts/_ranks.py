@@ -25,7 +25,10 @@ def run_on_ranks(script: str, ranks: list[int], worker_args: list[str]) -> list[
             out = Path(tmp) / "rows.json"
             cmd = [mpiexec(), "-n", str(n), sys.executable, script, "--worker", "--json", str(out),
                    *worker_args]
-            subprocess.run(cmd, check=True)
+            # one BLAS thread per rank: OpenBLAS's spinning threads oversubscribe the cores otherwise
+            env = dict(os.environ, OPENBLAS_NUM_THREADS=os.environ.get("OPENBLAS_NUM_THREADS", "1"),
+                       OMP_NUM_THREADS=os.environ.get("OMP_NUM_THREADS", "1"))
+            subprocess.run(cmd, check=True, env=env)
             rows.extend(json.loads(out.read_text()))
     return rows
 

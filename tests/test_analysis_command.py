@@ -55,7 +55,7 @@ def solve_sweep(comm, path: Path, levels: int, footprint=None) -> Path:
 
 def test_analyse_writes_measures_and_figures(comm, shared_dir):
     result = solve_sweep(comm, shared_dir / "small.nc", levels=5)
-    assert command.run(arguments(str(result), "--output", str(shared_dir / "figures"))) == 0
+    assert command.run(arguments(str(result), "--output", str(shared_dir / "figures")), comm) == 0
     comm.Barrier()
     path = shared_dir / "small.analysis.nc"
     assert not path.with_name(path.name + ".part").exists()
@@ -83,14 +83,14 @@ def test_analyse_writes_measures_and_figures(comm, shared_dir):
 def test_analyse_a_disc_footprint_and_bad_input(comm, shared_dir):
     footprint = disc((17, 17), 1e-4, 1.5e-3)
     result = solve_sweep(comm, shared_dir / "disc.nc", levels=4, footprint=footprint)
-    assert command.run(arguments(str(result), "--footprint-diameter", "1.5e-3", "--no-figures")) == 0
+    assert command.run(arguments(str(result), "--footprint-diameter", "1.5e-3", "--no-figures"), comm) == 0
     comm.Barrier()
     with xr.open_dataset(shared_dir / "disc.analysis.nc", engine="h5netcdf") as ds:
         assert ds.attrs["bulk_footprint"] == "footprint given"
         bulk = footprint_bulk_compliance(footprint, 1e-4, INTERFACE, comm)
         assert float(ds["bulk_compliance"]) == pytest.approx(bulk.mean, rel=1e-12)
     assert not list(shared_dir.glob("disc_*.png"))
-    assert command.run(arguments(str(shared_dir / "missing.nc"))) == 2
+    assert command.run(arguments(str(shared_dir / "missing.nc")), comm) == 2
 
 
 def test_analyse_an_ensemble_study_file(comm, shared_dir):
@@ -126,7 +126,7 @@ def test_analyse_an_ensemble_study_file(comm, shared_dir):
         root.to_netcdf(path, engine="h5netcdf")
         tangential.to_netcdf(path, mode="a", group="tangential", engine="h5netcdf")
     comm.Barrier()
-    assert command.run(arguments(str(path), "--output", str(shared_dir / "ensemble"))) == 0
+    assert command.run(arguments(str(path), "--output", str(shared_dir / "ensemble")), comm) == 0
     comm.Barrier()
     with xr.open_dataset(shared_dir / "ensemble.analysis.nc", engine="h5netcdf") as ds:
         assert {"box_counting", "closure", "slip_area"} <= set(ds.attrs["measures"].split())

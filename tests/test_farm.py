@@ -121,9 +121,9 @@ def test_one_or_two_ranks_per_task_agree(comm, shared_dir):
 def test_failed_task_is_recorded_and_the_rest_complete(comm, shared_dir, monkeypatch):
     """A solver failure inside one task keeps that task's solved loads and its message, the
     other tasks complete, and the run says so; a second run does not retry it unless asked."""
-    from roughcontact.normal import ActiveSetSolver
+    from roughcontact.normal import NormalSolver
 
-    solve_load = ActiveSetSolver.solve_load
+    solve_load = NormalSolver.solve_load
 
     def fail(self, load, *args, **kwargs):     # the same decision on every rank of the task
         meta = self.problem.topography.metadata
@@ -131,7 +131,7 @@ def test_failed_task_is_recorded_and_the_rest_complete(comm, shared_dir, monkeyp
             raise ConvergenceError("ACTIVE_SET_MAX_ITERATIONS", "forced for the test")
         return solve_load(self, load, *args, **kwargs)
 
-    monkeypatch.setattr(ActiveSetSolver, "solve_load", fail)
+    monkeypatch.setattr(NormalSolver, "solve_load", fail)
     study = load_study(tiny(name="failing", tangential={}))
     summary = run_study(study, comm, shared_dir, log=quiet, quiet=True)
     assert summary.exit_code == 1 and list(summary.failed) == [4]          # (Δ = 2.4, seed 2)
@@ -145,7 +145,7 @@ def test_failed_task_is_recorded_and_the_rest_complete(comm, shared_dir, monkeyp
     assert int((ds["status"] == 0).sum()) == 5 and ds["closure"].count() == 5 * 3 + 1
     again = run_study(study, comm, shared_dir, log=quiet, quiet=True)
     assert again.solved == 0 and again.resumed == 6 and list(again.failed) == [4]
-    monkeypatch.setattr(ActiveSetSolver, "solve_load", solve_load)
+    monkeypatch.setattr(NormalSolver, "solve_load", solve_load)
     retried = run_study(study, comm, shared_dir, log=quiet, quiet=True, retry_failed=True)
     assert retried.solved == 1 and retried.exit_code == 0
 

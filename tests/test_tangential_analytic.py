@@ -6,6 +6,11 @@ discrete model (rigid punches of radius s/2, Eq. 10) resolves the contact
 and stick boundaries to about one spacing, so errors are first order in
 s/a: tolerances below are a factor ~2 above the errors measured at a/s = 16
 and 32, and each error must fall with refinement.
+
+
+The corrective solves use the active set (``method="ksp"``), exact on its contact set to
+the Krylov tolerance, so the discrete identities hold to round-off; the constrained CG
+reaches the same states to its tolerance (tests/test_tangential_large.py).
 """
 from __future__ import annotations
 
@@ -35,7 +40,7 @@ def hertz_case(comm, a_over_s: int):
     problem = NormalProblem(topo, EXACT, comm)
     with ActiveSetSolver(problem) as solver:
         normal = solver.solve_closure(A0**2 / RADIUS)
-    sweep = tangential_sweep(problem, normal, FRICTION, steps=STEPS)
+    sweep = tangential_sweep(problem, normal, FRICTION, steps=STEPS, method="ksp")
     problem.destroy()
     return topo, normal, sweep
 
@@ -168,8 +173,8 @@ def test_hertz_fretting_loop(comm, hertz16):
     topo, normal, _ = hertz16
     problem = NormalProblem(topo, EXACT, comm)
     amplitude = 0.6 * FRICTION * normal.load
-    coarse = fretting_cycle(problem, normal, FRICTION, amplitude, steps=12)
-    cycle = fretting_cycle(problem, normal, FRICTION, amplitude, steps=24)
+    coarse = fretting_cycle(problem, normal, FRICTION, amplitude, steps=12, method="ksp")
+    cycle = fretting_cycle(problem, normal, FRICTION, amplitude, steps=24, method="ksp")
     problem.destroy()
     delta, e_star = A0**2 / RADIUS, EXACT.contact_modulus
     scale = hertz.load(delta, RADIUS, e_star) / normal.load    # references at the same Q / fP
@@ -198,7 +203,7 @@ def test_flat_punch_sticks_or_slips_entirely(comm):
     problem = NormalProblem(topo, EXACT, comm)
     with ActiveSetSolver(problem) as solver:
         normal = solver.solve_closure(1e-8)
-    sweep = tangential_sweep(problem, normal, FRICTION, steps=5)
+    sweep = tangential_sweep(problem, normal, FRICTION, steps=5, method="ksp")
     problem.destroy()
     a_eff = np.sqrt(topo.nominal_area / np.pi)
     stiffness = flat_punch.stiffness(a_eff, EXACT.contact_modulus)

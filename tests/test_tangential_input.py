@@ -46,15 +46,15 @@ def raises(parameter: str, match: str | None = None):
 def test_friction_must_be_positive(sphere, friction):
     problem, normal = sphere
     with raises("friction"):
-        CattaneoSolver(problem, normal, friction)
+        CattaneoSolver(problem, normal, friction, method="ksp")
     with raises("friction"):
-        tangential_sweep(problem, normal, friction, steps=3)
+        tangential_sweep(problem, normal, friction, steps=3, method="ksp")
 
 
 def test_full_sliding_is_refused_with_the_reason(sphere):
     """Q ≥ fP is full sliding: displacements are undetermined (§5.2); the limit is offered instead."""
     problem, normal = sphere
-    with CattaneoSolver(problem, normal, 0.4) as solver:
+    with CattaneoSolver(problem, normal, 0.4, method="ksp") as solver:
         for q in (0.4 * normal.load, 0.5 * normal.load):
             with raises("tangential", match="undetermined"):
                 solver.solve(q)
@@ -66,16 +66,16 @@ def test_full_sliding_is_refused_with_the_reason(sphere):
         assert solver.solve(0.4 * normal.load * (1 - 1e-6)).slip_area > 0.0
         assert solver.incipient_sliding().limit
     with raises("tangential", match="undetermined"):
-        tangential_sweep(problem, normal, 0.4, tangential=[0.0, 0.4 * normal.load])
+        tangential_sweep(problem, normal, 0.4, tangential=[0.0, 0.4 * normal.load], method="ksp")
     with raises("amplitude", match="undetermined"):
-        fretting_cycle(problem, normal, 0.4, 0.4 * normal.load, steps=4)
+        fretting_cycle(problem, normal, 0.4, 0.4 * normal.load, steps=4, method="ksp")
 
 
 @pytest.mark.parametrize("direction", [(0.0, 0.0), (np.nan, 1.0), (1.0,), "x", (np.inf, 0.0)])
 def test_direction_must_be_a_nonzero_vector(sphere, direction):
     problem, normal = sphere
     with raises("direction"):
-        CattaneoSolver(problem, normal, 0.3, direction=direction)
+        CattaneoSolver(problem, normal, 0.3, direction=direction, method="ksp")
 
 
 def test_normal_state_must_belong_to_the_problem(comm, sphere):
@@ -83,37 +83,37 @@ def test_normal_state_must_belong_to_the_problem(comm, sphere):
     with ActiveSetSolver(problem) as solver:
         unloaded = solver.solve_load(0.0)
     with raises("normal", match="P must be > 0"):
-        CattaneoSolver(problem, unloaded, 0.3)
+        CattaneoSolver(problem, unloaded, 0.3, method="ksp")
     other = NormalProblem(Topography(sphere_heights(15, 2e-6, 0.01), 2e-6), EXACT, comm)
     try:
         with raises("normal", match="another problem"):
-            CattaneoSolver(other, normal, 0.3)
+            CattaneoSolver(other, normal, 0.3, method="ksp")
     finally:
         other.destroy()
     with raises("normal"):
-        CattaneoSolver(problem, "not a result", 0.3)
+        CattaneoSolver(problem, "not a result", 0.3, method="ksp")
 
 
 def test_sweep_and_cycle_arguments(sphere):
     problem, normal = sphere
     with raises("steps"):
-        tangential_sweep(problem, normal, 0.3, steps=0)
+        tangential_sweep(problem, normal, 0.3, steps=0, method="ksp")
     with raises("steps"):
-        tangential_sweep(problem, normal, 0.3, steps=2.5)
+        tangential_sweep(problem, normal, 0.3, steps=2.5, method="ksp")
     with raises("steps", match="not both"):
-        tangential_sweep(problem, normal, 0.3, steps=3, tangential=[0.0])
+        tangential_sweep(problem, normal, 0.3, steps=3, tangential=[0.0], method="ksp")
     with raises("steps", match="not both"):
-        tangential_sweep(problem, normal, 0.3)
+        tangential_sweep(problem, normal, 0.3, method="ksp")
     with raises("tangential", match="increasing"):
-        tangential_sweep(problem, normal, 0.3, tangential=[0.02 * normal.load, 0.01 * normal.load])
+        tangential_sweep(problem, normal, 0.3, tangential=[0.02 * normal.load, 0.01 * normal.load], method="ksp")
     with raises("tangential", match="empty"):
-        tangential_sweep(problem, normal, 0.3, tangential=[])
+        tangential_sweep(problem, normal, 0.3, tangential=[], method="ksp")
     with raises("amplitude", match="> 0"):
-        fretting_cycle(problem, normal, 0.3, 0.0, steps=4)
+        fretting_cycle(problem, normal, 0.3, 0.0, steps=4, method="ksp")
     with raises("steps"):
-        fretting_cycle(problem, normal, 0.3, 0.1 * normal.load, steps=0)
+        fretting_cycle(problem, normal, 0.3, 0.1 * normal.load, steps=0, method="ksp")
     with raises("index"):
-        fretting_cycle(problem, normal, 0.3, 0.1 * normal.load, steps=2).traction(9)
+        fretting_cycle(problem, normal, 0.3, 0.1 * normal.load, steps=2, method="ksp").traction(9)
 
 
 def test_q_within_round_off_of_fp_is_solved_or_full_sliding(sphere):
@@ -133,16 +133,16 @@ def test_q_within_round_off_of_fp_is_solved_or_full_sliding(sphere):
               np.linspace(0.0, f * normal.load, 5)[-1]):
         if q >= f * imposed.load:
             with raises("tangential", match="full sliding"):
-                tangential_sweep(problem, imposed, f, tangential=[0.0, q])
+                tangential_sweep(problem, imposed, f, tangential=[0.0, q], method="ksp")
             continue
-        state = tangential_sweep(problem, imposed, f, tangential=[0.0, q], include_limit=False).states[-1]
+        state = tangential_sweep(problem, imposed, f, tangential=[0.0, q], include_limit=False, method="ksp").states[-1]
         assert state.stick.sum() >= 1 and state.coulomb_violation == 0.0
     with raises("amplitude", match="full sliding"):
-        fretting_cycle(problem, imposed, f, f * imposed.load * (1 + 1e-12), steps=2)
+        fretting_cycle(problem, imposed, f, f * imposed.load * (1 + 1e-12), steps=2, method="ksp")
     # a corrective solve that cannot converge (one active-set iteration allowed): within the
     # load tolerance of fP it is the full-sliding limit, far from fP the failure it is
     starved = dict(settings=ActiveSetSettings(max_outer=1))
     with raises("tangential", match="load tolerance"):
-        tangential_sweep(problem, imposed, f, tangential=[f * imposed.load * (1 - 2e-9)], **starved)
+        tangential_sweep(problem, imposed, f, tangential=[f * imposed.load * (1 - 2e-9)], **starved, method="ksp")
     with pytest.raises(ConvergenceError):
-        tangential_sweep(problem, imposed, f, tangential=[0.5 * f * imposed.load], **starved)
+        tangential_sweep(problem, imposed, f, tangential=[0.5 * f * imposed.load], **starved, method="ksp")

@@ -6,7 +6,7 @@ any, the Q sweeps), runs every measure they allow (:func:`~.report.analyse`),
 writes ``<name>.analysis.nc`` beside RESULT (from rank 0, to a temporary
 name first, then renamed) and one figure per measure into ``--output``
 (default: beside RESULT). Under MPI the bulk compliance of the closure
-curve is computed on all ranks of COMM_WORLD.
+curve is computed on the ranks of the communicator the command line gives.
 """
 from __future__ import annotations
 
@@ -77,15 +77,10 @@ def analyse_file(result: str | Path, comm, output: str | Path | None = None,
     return paths
 
 
-def run(args: argparse.Namespace, comm=None) -> int:
-    """Run ``analyse`` on ``comm`` (the command line's: COMM_WORLD when None); 0 on success, 2 on bad
-    input (message on rank 0)."""
+def run(args: argparse.Namespace, comm) -> int:
+    """Run ``analyse`` on ``comm`` (the command line's); 0 on success, 2 on bad input (message on rank 0)."""
     from ..errors import RoughContactError
 
-    if comm is None:
-        from mpi4py import MPI
-
-        comm = MPI.COMM_WORLD
     try:
         analyse_file(args.result, comm, output=args.output, footprint_diameter=args.footprint_diameter,
                      load_dim=args.load_dim, draw_figures=not args.no_figures)

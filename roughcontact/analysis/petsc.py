@@ -68,7 +68,7 @@ def footprint_bulk_compliance(footprint: np.ndarray, spacing: float, interface: 
 
 
 def solve_resolutions(topography: Topography, interface: Interface, comm, load: float, levels: int,
-                      method: str = "decimate", solver: str = "ksp") -> xr.Dataset:
+                      method: str = "decimate", solver: str = "auto") -> xr.Dataset:
     """The real contact area at one load P on the same surface at s, 2s, 4s, … (Fig. 1).
 
     Each resolution of :func:`~roughcontact.surfaces.multiresolution` is
@@ -76,7 +76,7 @@ def solve_resolutions(topography: Topography, interface: Interface, comm, load: 
     with ``contact_area``, ``contact_fraction`` and ``contact_nodes``, the
     input of :func:`~.resolution.contact_area_resolution`.
     """
-    from ..normal import ActiveSetSolver
+    from ..normal import make_solver
     from ..surfaces import multiresolution
 
     load = require_finite_positive("load", load)
@@ -84,8 +84,8 @@ def solve_resolutions(topography: Topography, interface: Interface, comm, load: 
     for coarse in reversed(multiresolution(topography, levels, method)):
         problem = NormalProblem(coarse, interface, comm)
         try:
-            with ActiveSetSolver(problem, solver) as active_set:
-                result = active_set.solve_load(load)
+            with make_solver(problem, solver) as normal_solver:
+                result = normal_solver.solve_load(load)
         finally:
             problem.destroy()
         rows.append((coarse.spacing, result.contact_area, result.contact_fraction, result.contact_count))

@@ -52,7 +52,7 @@ DEFAULT_STUDY: dict[str, Any] = {
     "surface": {"generator": "midpoint", "levels": 6, "spacing": 1e-4, "rms_height": 1e-5},
     "axes": {"fractal_dimension": [2.1, 2.3, 2.5], "seeds": 8},
     "materials": {"body1": {"E": 20e9, "nu": 0.2}, "body2": {"E": 20e9, "nu": 0.2}},
-    "normal": {"loads": [round(float(p), 1) for p in np.linspace(25.0, 500.0, 12)], "method": "ksp"},
+    "normal": {"loads": [round(float(p), 1) for p in np.linspace(25.0, 500.0, 12)], "method": "auto"},
     "output": {"fields": "all"},
 }
 
@@ -215,8 +215,8 @@ def _normal(table: dict):
         raise InputError("normal.loads", "give either loads (P in N) or pressures (σ0 = P/A0 in Pa), not both")
     key = "loads" if "loads" in table else "pressures"
     values = schema.increasing_numbers(f"normal.{key}", table[key], "N" if key == "loads" else "Pa")
-    options = NormalOptions(operator=schema.string("normal.operator", table.get("operator", "dense")),
-                            method=schema.string("normal.method", table.get("method", "ksp")))
+    options = NormalOptions(operator=schema.string("normal.operator", table.get("operator", "auto")),
+                            method=schema.string("normal.method", table.get("method", "auto")))
     return values, "normal_load" if key == "loads" else "mean_pressure", options
 
 

@@ -90,6 +90,8 @@ def check_operator_memory(study, nodes: int, comm) -> None:
     node.Free()
     per_rank = comm.allreduce(available_memory() / local, op=MPI.MIN)
     kind, k = study.normal.operator, study.ranks_per_task
+    if kind == "auto":                  # an FFT operator (periodic or not: the same memory)
+        kind = "fft"
     need = operator_memory(kind, nodes, k)
     if need > MEMORY_SHARE * per_rank:
         others = [o for o in KINDS if o != kind]

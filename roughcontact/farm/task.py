@@ -21,18 +21,20 @@ from ..errors import InputError, RoughContactError
 from ..materials import Interface
 from ..surfaces.topography import Topography
 
-#: flexibility operators a study's ``normal.operator`` may name (built in :func:`open_normal_solver`)
-OPERATORS = ("dense",)
-#: inner solvers of the active set (``normal.method``, :class:`~roughcontact.normal.ActiveSetSolver`)
-METHODS = ("ksp", "gauss-seidel")
+#: flexibility operators a study's ``normal.operator`` may name (built in :func:`open_normal_solver`;
+#: "auto": :func:`roughcontact.normal.choice.choose_operator`)
+OPERATORS = ("auto", "dense", "fft", "fft-periodic")
+#: normal methods (``normal.method``, :func:`roughcontact.normal.make_solver`; "auto":
+#: :func:`roughcontact.normal.choice.choose_method`)
+METHODS = ("auto", "ksp", "gauss-seidel", "cg")
 
 
 @dataclass(frozen=True)
 class NormalOptions:
     """How each normal problem is assembled and solved: ``operator`` and ``method``."""
 
-    operator: str = "dense"
-    method: str = "ksp"
+    operator: str = "auto"
+    method: str = "auto"
 
     def __post_init__(self):
         for key, value, choices in (("operator", self.operator, OPERATORS), ("method", self.method, METHODS)):

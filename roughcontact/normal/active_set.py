@@ -103,6 +103,7 @@ class ActiveSetSolver(NormalSolver):
                  settings: ActiveSetSettings = ActiveSetSettings(), rtol: float | None = None,
                  options: dict | None = None, prefix: str = "normal_"):
         super().__init__(problem)
+        self.method = method
         if problem.flexibility.periodic:
             raise InputError("method", f"{method!r} solves displacement-controlled sub-problems, which a "
                                        "periodic operator does not define (its mean mode is free): use 'cg'")

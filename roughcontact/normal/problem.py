@@ -35,27 +35,31 @@ class NormalProblem(Collective):
     comm
         mpi4py communicator the operator is distributed on.
     operator
-        The flexibility operator H over the footprint nodes: ``"dense"``
-        (the explicit Eq. 10 matrix), ``"fft"`` (matrix-free, zero-padded
-        FFT convolution), ``"fft-periodic"`` (the grid is one period) or a
-        user's PETSc Mat (rows owned as :class:`~roughcontact.operators.layout.NodeLayout`).
+        The flexibility operator H over the footprint nodes: ``"auto"``
+        (:func:`~.choice.choose_operator`), ``"dense"`` (the explicit Eq. 10
+        matrix), ``"fft"`` (matrix-free, zero-padded FFT convolution),
+        ``"fft-periodic"`` (the grid is one period) or a user's PETSc Mat
+        (rows owned as :class:`~roughcontact.operators.layout.NodeLayout`).
         See :class:`~roughcontact.operators.flexibility.Flexibility`.
     workers
         FFT threads per rank (default: the node's cores shared by its ranks).
     """
 
-    def __init__(self, topography: Topography, interface: Interface, comm, operator="dense",
+    def __init__(self, topography: Topography, interface: Interface, comm, operator="auto",
                  workers: int | None = None):
         from ..operators.flexibility import Flexibility
+        from .choice import choose_operator
 
         self.topography = topography
         self.interface = interface
         self.comm = comm
         if isinstance(operator, str):
-            self.flexibility = Flexibility(topography, interface, comm, kind=operator, workers=workers)
+            kind, self.operator_reason = choose_operator(topography, operator)
+            self.flexibility = Flexibility(topography, interface, comm, kind=kind, workers=workers)
             self._owns_operator = True
         else:
             self.flexibility = Flexibility.from_mat(operator, topography, comm)
+            self.operator_reason = "given"
             self._owns_operator = False
         layout = self.flexibility.layout
         self.nodes = layout.nodes()

@@ -38,6 +38,8 @@ class NormalResult:
     no_contact: bool
     full_contact: bool
     operator: str = "dense"
+    method: str = ""
+    choice: str = ""
     coarse_iterations: int = 0
     converged: bool = True
     reason: str = "CONVERGED"

@@ -97,11 +97,18 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
                 break
             alpha *= 0.5
         if alpha < 1e-6:
+            if error <= 1e3 * load_tol:
+                advice = ("the contact state is resolved more coarsely than load_tol: loosen it, or "
+                          "tighten the inner solves")
+            else:
+                advice = (f"the iteration stalled far from the imposed loads at rotation "
+                          f"({rigid[1]:.3g}, {rigid[2]:.3g}) rad; free rotations that must tilt the body by "
+                          "more than its roughness to bring nodes around the load point leave the small "
+                          "rotations of Eq. 7: fix the rotation (rotation=(0, 0)) or check the load point")
             raise ConvergenceError(
                 "LOAD_CONTROL_LINE_SEARCH",
-                f"Newton step {newton} on the rigid motion found no decrease of the "
-                f"complementary energy nor of the load residual ({error:.3e}); the contact "
-                "state is resolved more coarsely than load_tol: loosen it")
+                f"Newton step {newton} on the rigid motion found no decrease of the complementary energy "
+                f"nor of the load residual ({error:.3e}); {advice}")
         # the trust region follows Newton's own step: the log-P damping is not a sign of distrust
         moved = float(np.max(np.abs(alpha * newton_step) / units))
         radius = 4.0 * radius if alpha == 1.0 and moved >= 0.99 * radius else max(moved, 1e-3)

@@ -58,6 +58,8 @@ class NormalSolver(Collective):
         self.rigid = np.zeros(3)
 
     description = ""
+    method = ""
+    method_reason = "given"
 
     # ------------------------------------------------------------------ API
     def warm_start(self, result: NormalResult) -> None:
@@ -178,7 +180,8 @@ class NormalSolver(Collective):
             contact_area=n_contact * s**2, nominal_area=pb.size * s**2,
             outer_iterations=state.outer, linear_iterations=int(state.linear),
             residual=float(state.residual), elapsed=time.perf_counter() - t0,
-            solver=self.description, control=control, operator=pb.operator_kind,
+            solver=self.description, control=control, operator=pb.operator_kind, method=self.method,
+            choice=f"operator {pb.operator_kind} ({pb.operator_reason}); method {self.method} ({self.method_reason})",
             coarse_iterations=int(getattr(self, "coarse_iterations", 0)),
             no_contact=n_contact == 0, full_contact=n_contact == pb.size,
             residual_history=tuple(state.history))
@@ -192,18 +195,24 @@ def _pair(name: str, value) -> tuple:
     return a, b
 
 
-def make_solver(problem: NormalProblem, method: str = "ksp", **options) -> NormalSolver:
-    """A normal solver of ``problem`` by name: ``"ksp"``, ``"gauss-seidel"`` or ``"cg"``.
+def make_solver(problem: NormalProblem, method: str = "auto", **options) -> NormalSolver:
+    """A normal solver of ``problem`` by name: ``"auto"`` (:func:`~.choice.choose_method`),
+    ``"ksp"``, ``"gauss-seidel"`` or ``"cg"``.
 
     ``options`` go to the solver's constructor (settings, tolerances, PETSc
     options and prefix).
     """
-    if method in ("ksp", "gauss-seidel"):
+    from .choice import choose_method
+
+    problem._check_alive()
+    name, reason = choose_method(problem.operator_kind, method)
+    if name in ("ksp", "gauss-seidel"):
         from .active_set import ActiveSetSolver
 
-        return ActiveSetSolver(problem, method, **options)
-    if method == "cg":
+        solver = ActiveSetSolver(problem, name, **options)
+    else:
         from .constrained_cg import ConstrainedCGSolver
 
-        return ConstrainedCGSolver(problem, **options)
-    raise InputError("method", f"must be one of {', '.join(METHODS)}, got {method!r}")
+        solver = ConstrainedCGSolver(problem, **options)
+    solver.method, solver.method_reason = name, reason
+    return solver

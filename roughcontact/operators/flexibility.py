@@ -28,15 +28,16 @@ from petsc4py import PETSc
 
 from ..errors import InputError
 from .convolution import SlabConvolution
-from .kernel import kernel_block, punch_kernel
+from .kernel import kernel_block, offset_table, punch_kernel
 from .layout import NodeLayout
 
 KINDS = ("dense", "fft", "fft-periodic")
 
-#: an explicit H_SS is used while |S|² ≤ EXPLICIT_RATIO · Lx · Ly (its dense product then
-#: costs less than one FFT product; see scripts/bench_operators.py) and it fits in
-#: EXPLICIT_BYTES per rank
-EXPLICIT_RATIO = 4.0
+#: an explicit H_SS is used while |S|² ≤ EXPLICIT_RATIO · Lx · Ly and it fits in EXPLICIT_BYTES
+#: per rank: its product then costs about what an FFT product and the preconditioner save in
+#: iterations (the active set's load sweeps at 65² and 129² were fastest at 16, against 4 and 64;
+#: an explicit block at every size took 2.5 times longer at 129²)
+EXPLICIT_RATIO = 16.0
 EXPLICIT_BYTES = 256 * 2**20
 
 
@@ -185,19 +186,17 @@ class Flexibility:
         """H_SS gathered from the kernel table, row-distributed MATDENSE (C-ordered columns)."""
         if self._nodes is None:
             self._nodes = self.layout.nodes()
+            self._offsets = offset_table(self.kernel, self.periodic)
         local_nodes = self._nodes[self.layout.start:self.layout.stop][active]
         all_nodes = np.concatenate(self.comm.allgather(local_nodes))
         # H_SS is symmetric: row j of this C-ordered array is column j of the local rows
-        columns = kernel_block(self.kernel, all_nodes, local_nodes, periodic_shape=self._period())
+        columns = kernel_block(self._offsets, self.shape, all_nodes, local_nodes, periodic=self.periodic)
         local = local_nodes.shape[0]
         mat = PETSc.Mat().createDense(((local, count), (local, count)), array=columns.T, comm=self.comm)
         mat.setOption(PETSc.Mat.Option.SYMMETRIC, True)
         mat.setOption(PETSc.Mat.Option.SPD, True)
         mat.assemble()
         return mat
-
-    def _period(self):
-        return self.shape if self.periodic else None
 
     def destroy(self) -> None:
         """Free the PETSc Mat (collective)."""

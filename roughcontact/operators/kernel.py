@@ -99,36 +99,36 @@ def influence_rows(kernel: np.ndarray, footprint: np.ndarray, rows: slice,
     return out
 
 
-def kernel_block(kernel: np.ndarray, row_nodes: np.ndarray, column_nodes: np.ndarray,
-                 periodic_shape: tuple[int, int] | None = None, out: np.ndarray | None = None,
-                 chunk: int = 1 << 22) -> np.ndarray:
-    """H between two node sets, H[a, b] = K[|i_a − i_b|, |j_a − j_b|] (Eq. 10).
+def offset_table(kernel: np.ndarray, periodic: bool = False) -> np.ndarray:
+    """The kernel over signed offsets, as used by :func:`kernel_block`.
 
-    ``row_nodes`` and ``column_nodes`` are (m, 2) and (n, 2) arrays of grid
-    indices; the (m, n) block is gathered from the table in chunks of about
-    ``chunk`` entries so the index temporaries stay small. With
-    ``periodic_shape`` the table is a periodic kernel over one period and is
-    read at the offsets modulo the period.
+    Non-periodic: the mirrored table (:func:`mirrored_kernel`), (2nx − 1) × (2ny − 1),
+    entry (nx − 1 + Δi, ny − 1 + Δj). Periodic: the period tiled twice along
+    each axis, 2nx × 2ny, entry (nx + Δi, ny + Δj) for Δi ∈ (−nx, nx).
     """
-    ny = kernel.shape[1]
-    flat = kernel.ravel()
-    m, n = row_nodes.shape[0], column_nodes.shape[0]
+    return np.tile(kernel, (2, 2)) if periodic else mirrored_kernel(kernel)
+
+
+def kernel_block(table: np.ndarray, shape: tuple[int, int], row_nodes: np.ndarray, column_nodes: np.ndarray,
+                 periodic: bool = False, out: np.ndarray | None = None, chunk: int = 1 << 22) -> np.ndarray:
+    """H between two node sets, H[a, b] = K(i_a − i_b, j_a − j_b) (Eq. 10), from :func:`offset_table`.
+
+    The flat index of an entry in the offset table is a row term minus a
+    column term, so the (m, n) block is one integer subtraction and one
+    gather per entry, in chunks of about ``chunk`` entries.
+    """
+    nx, ny = shape
+    width = table.shape[1]
+    base = (nx if periodic else nx - 1) * width + (ny if periodic else ny - 1)
+    rows = base + row_nodes[:, 0].astype(np.int64) * width + row_nodes[:, 1]
+    columns = column_nodes[:, 0].astype(np.int64) * width + column_nodes[:, 1]
+    flat = table.ravel()
+    m, n = rows.size, columns.size
     if out is None:
         out = np.empty((m, n))
-    ci = column_nodes[:, 0].astype(np.int64)
-    cj = column_nodes[:, 1].astype(np.int64)
     step = max(1, chunk // max(n, 1))
     for start in range(0, m, step):
         stop = min(m, start + step)
-        di = row_nodes[start:stop, 0, None].astype(np.int64) - ci
-        dj = row_nodes[start:stop, 1, None].astype(np.int64) - cj
-        if periodic_shape is None:
-            np.abs(di, out=di)
-            np.abs(dj, out=dj)
-        else:
-            np.mod(di, periodic_shape[0], out=di)
-            np.mod(dj, periodic_shape[1], out=dj)
-        di *= ny
-        di += dj
-        np.take(flat, di, out=out[start:stop])
+        # mode="clip": the indices are valid by construction, and numpy buffers take(out=) with "raise"
+        np.take(flat, rows[start:stop, None] - columns[None, :], out=out[start:stop], mode="clip")
     return out

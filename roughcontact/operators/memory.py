@@ -1,8 +1,25 @@
-"""Memory an operator needs on each rank, estimated before it is built.
+"""Memory a normal solve needs on each rank, estimated before anything is built.
 
 A study checks these figures against the machine before its first solve, so
 a grid too large for an operator is refused with the alternatives instead of
 ending in a numpy ``MemoryError`` or an out-of-memory kill.
+
+The estimate is the high-water resident set of a whole normal solve on the
+busiest rank (problem, operator, solver, result), above what the process
+held before, as measured by ``scripts/bench_normal_large.py``:
+
+- every kind holds some arrays of all N nodes on every rank: the Eq. 10
+  table, node coordinates, the gathered result fields — about
+  :data:`REPLICATED` bytes per node;
+- the rest is split over the ranks: the FFT symbols of the operator and its
+  preconditioner, the padded transform buffers, the solver's vectors and the
+  coarse levels of a nested start — about :data:`DISTRIBUTED` bytes per node
+  in all;
+- ``"dense"`` adds the explicit N × N matrix, 8 N²/ranks bytes, and the
+  C-ordered rows its assembly fills (the same memory, handed to PETSc).
+
+Measured (1024², the constrained CG with its nested start): 370 B/node on
+one rank, 240 B/node/rank on two; at 2048² on one rank, 304 B/node.
 """
 from __future__ import annotations
 
@@ -11,18 +28,20 @@ import math
 from ..errors import InputError
 
 #: operators whose memory is estimated here
-KINDS = ("dense",)
+KINDS = ("dense", "fft", "fft-periodic")
+#: bytes per node held on every rank
+REPLICATED = 110
+#: bytes per node split over the ranks
+DISTRIBUTED = 280
 
 
 def operator_memory(kind: str, nodes: int, ranks: int = 1) -> int:
-    """Bytes of the operator on the busiest rank.
+    """Peak bytes of a normal solve with operator ``kind`` on the busiest rank.
 
     Parameters
     ----------
     kind
-        ``"dense"``: the explicit matrix H (Eq. 10), N² float64 entries with
-        its rows split over the ranks, plus the C-ordered block of rows the
-        assembly fills before handing it to PETSc (at most 256 rows).
+        ``"dense"``, ``"fft"`` or ``"fft-periodic"``.
     nodes
         N, the number of footprint nodes (unknowns).
     ranks
@@ -35,5 +54,7 @@ def operator_memory(kind: str, nodes: int, ranks: int = 1) -> int:
     if isinstance(ranks, bool) or int(ranks) != ranks or ranks < 1:
         raise InputError("ranks", f"must be a positive integer, got {ranks!r}")
     nodes, ranks = int(nodes), int(ranks)
-    rows = math.ceil(nodes / ranks)
-    return 8 * nodes * (rows + min(rows, 256))
+    solve = nodes * (REPLICATED + DISTRIBUTED / ranks)
+    if kind == "dense":
+        solve += 8 * nodes * math.ceil(nodes / ranks)
+    return int(solve)

@@ -140,7 +140,7 @@ class CattaneoSolver(Collective):
     direction
         In-plane direction of Q, any non-zero vector (normalised here).
     method
-        The corrective solver's method (``"ksp"``, ``"gauss-seidel"``, ``"cg"``).
+        The corrective solver's method (``"auto"``, ``"ksp"``, ``"gauss-seidel"``, ``"cg"``).
     **solver_options
         Its options (``settings``, ``rtol``, ``options``, ``prefix``); the
         active-set methods read PETSc options under the prefix ``cattaneo_``
@@ -153,7 +153,7 @@ class CattaneoSolver(Collective):
     """
 
     def __init__(self, problem: NormalProblem, normal: NormalResult, friction: float,
-                 direction=(1.0, 0.0), method: str = "ksp", **solver_options):
+                 direction=(1.0, 0.0), method: str = "auto", **solver_options):
         self.friction = check_friction(friction)
         self.direction = check_direction(direction)
         check_normal(problem, normal)

@@ -1,0 +1,72 @@
+#!/usr/bin/env python3
+"""Which operator and method a small task should use: the measured crossover behind ``auto``.
+
+A task of an ensemble: build the problem, then a warm-started sweep of 12
+loads (0.05 % to 5 % of E* A0, the default study's range of contact) on a
+midpoint-displacement surface (Δ = 2.3), with the rotation free (the
+default of ``solve_load``) and fixed. For each grid (17² to 257²), operator
+(dense, fft) and method (ksp, cg): the wall time of the whole task, median
+of ``--repeats``, on one rank. The dense operator stops at 129² (257² would
+need 35 GB).
+
+    python scripts/bench_crossover.py [--levels 4 5 6 7 8] [--output results/bench_crossover.json]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--levels", type=int, nargs="+", default=[4, 5, 6, 7, 8])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--output", default="results/bench_crossover.json")
+    args = parser.parse_args()
+
+    import petsc4py
+
+    petsc4py.init([])
+    from mpi4py import MPI
+
+    from roughcontact.materials import Interface, Material
+    from roughcontact.normal import NormalProblem, make_solver
+    from roughcontact.surfaces import midpoint_surface
+
+    rock = Interface(Material(20e9, 0.2), Material(20e9, 0.2))
+    rows = []
+    for levels in args.levels:
+        topo = midpoint_surface(levels, 2.3, spacing=1e-4, rms_height=1e-5, seed=1)
+        n = topo.shape[0]
+        loads = np.geomspace(5e-4, 5e-2, 12) * 0.1 * rock.contact_modulus * topo.nominal_area
+        for operator in ("dense", "fft"):
+            if operator == "dense" and n > 129:
+                continue
+            for method in ("ksp", "cg"):
+                for rotation in ("free", "fixed"):
+                    times, fraction = [], None
+                    for _ in range(args.repeats):
+                        t0 = time.perf_counter()
+                        problem = NormalProblem(topo, rock, MPI.COMM_SELF, operator=operator)
+                        with make_solver(problem, method) as solver:
+                            for load in loads:
+                                result = solver.solve_load(load, rotation=None if rotation == "free" else (0.0, 0.0))
+                        problem.destroy()
+                        times.append(time.perf_counter() - t0)
+                        fraction = result.contact_fraction
+                    row = {"n": n, "operator": operator, "method": method, "rotation": rotation,
+                           "seconds": float(np.median(times)), "last_contact_fraction": fraction}
+                    rows.append(row)
+                    print(json.dumps(row), flush=True)
+    path = Path(args.output)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(rows, indent=1))
+    print(f"wrote {path}")
+
+
+if __name__ == "__main__":
+    main()

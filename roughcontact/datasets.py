@@ -107,7 +107,9 @@ def normal_sweep_dataset(results: Sequence[NormalResult], spacing: float, dim: s
                       {"units": units, "long_name": long_name})
     ds = xr.Dataset(data, coords=coords)
     ds.attrs.update({"roughcontact_version": __version__, "spacing": spacing,
-                     "solver": results[0].solver if n else "", "control": results[0].control if n else ""})
+                     "solver": results[0].solver if n else "", "control": results[0].control if n else "",
+                     "operator": results[0].operator if n else "", "method": results[0].method if n else "",
+                     "solver_choice": results[0].choice if n else ""})
     ds.attrs.update(attrs or {})
     return ds
 

@@ -59,8 +59,12 @@ def task_groups(outcome: TaskOutcome) -> dict[str, xr.Dataset]:
             (dim,), np.asarray(outcome.incipient_energy, dtype=float),
             {"units": "J", "long_name": "energy dissipated up to incipient sliding E_tot (Eq. 27)"})
     root = root.assign(_task_scalars(outcome))
+    first = outcome.normal[0] if outcome.normal else None
     root.attrs = {"roughcontact_version": __version__, "task": task.index, "task_name": task.name,
                   "ranks_per_task": outcome.ranks, "fields": task.fields,
+                  "operator": first.operator if first else task.normal.operator,
+                  "method": first.method if first else task.normal.method,
+                  "solver": first.solver if first else "", "solver_choice": first.choice if first else "",
                   "warnings": "\n".join(outcome.warnings), **_axis_attrs(task.labels)}
     groups = {"/": root}
     if outcome.sweeps:

@@ -125,7 +125,9 @@ def _finish(study: Study, store: TaskStore, attrs: dict, tasks: list) -> dict:
     failed = {t.index: str(root["message"].values[t.position]) for t in tasks
               if int(root["status"].values[t.position]) != 0}
     attrs["tasks_failed"] = len(failed)
-    root.attrs = {**attrs, **{k: v for k, v in root.attrs.items() if k.startswith("fields_note")}}
+    # the operator and method the first task resolved (each task file records its own)
+    kept = ("fields_note", "operator", "method", "solver", "solver_choice")
+    root.attrs = {**attrs, **{k: v for k, v in root.attrs.items() if k.startswith(kept)}}
     paths = {"netcdf": write_combined(groups, store.combined), "failed": failed}
     if "contact_fraction" in root and root["contact_fraction"].notnull().any():
         shown = ensemble_statistics(root) if root.sizes.get("seed", 1) > 1 else root
@@ -145,7 +147,7 @@ def _provenance(study: Study, comm, k: int, started: str, petsc_options: str) ->
         "roughcontact_version": __version__, "study": study.name, "description": study.description,
         "study_definition": study.text, "study_sha256": study.identity,
         "load_dimension": study.load_dim, "fields": study.fields,
-        "operator": study.normal.operator, "method": study.normal.method,
+        "operator_requested": study.normal.operator, "method_requested": study.normal.method,
         "mpi_ranks": comm.Get_size(), "ranks_per_task": k, "groups": comm.Get_size() // k,
         "started": started, "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
         "petsc_options": petsc_options, "numpy_version": numpy.__version__,

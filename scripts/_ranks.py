@@ -54,3 +54,12 @@ def add_launch_arguments(parser: argparse.ArgumentParser, repeats: int, output: 
     parser.add_argument("--output", default=output)
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--json", help=argparse.SUPPRESS)
+
+
+def save_json(data, path, extra: str = "") -> Path:
+    """Write a benchmark's rows (or report) to ``path``, creating its directory; say so."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(data, indent=1))
+    print(f"wrote {path}{extra}")
+    return path

@@ -28,10 +28,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _ranks import save_json  # noqa: E402
 
 TOLERANCES = (1e-4, 1e-6, 1e-8)
 DENSE_LARGEST = 128 * 128
@@ -209,11 +213,9 @@ def main() -> None:
     tables = {f"{scene}/{measure}": cheapest(rows, scene, measure)
               for scene, measure in (("rough", "area_error"), ("rough", "pressure_error"),
                                      ("hertz", "load_error"), ("hertz", "pressure_error"))}
-    path = Path(args.output)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps({"rows": rows, "cheapest": tables}, indent=1))
+    path = save_json({"rows": rows, "cheapest": tables}, args.output,
+                     f" and {Path(args.output).with_suffix('.png')}")
     figure(rows, path.with_suffix(".png"))
-    print(f"wrote {path} and {path.with_suffix('.png')}")
 
 
 if __name__ == "__main__":

@@ -20,10 +20,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _ranks import save_json  # noqa: E402
 
 TAO_TYPES = ("bncg", "blmvm", "bqnls", "gpcg", "tron", "bqnkls")
 
@@ -163,10 +167,7 @@ def main() -> None:
                 row["contact_error"] = abs(row["contact"] / reference.contact.sum() - 1.0)
         problem.destroy()
     if comm.Get_rank() == 0:
-        path = Path(args.output)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(rows, indent=1))
-        print(f"wrote {path}")
+        save_json(rows, args.output)
 
 
 if __name__ == "__main__":

@@ -15,10 +15,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _ranks import save_json  # noqa: E402
 
 
 def main() -> None:
@@ -62,10 +66,7 @@ def main() -> None:
                            "seconds": float(np.median(times)), "last_contact_fraction": fraction}
                     rows.append(row)
                     print(json.dumps(row), flush=True)
-    path = Path(args.output)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(rows, indent=1))
-    print(f"wrote {path}")
+    save_json(rows, args.output)
 
 
 if __name__ == "__main__":

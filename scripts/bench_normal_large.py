@@ -48,6 +48,22 @@ def make_surface(n: int, seed: int = 1) -> np.ndarray:
                                       short_cutoff_wavelength=8 * s, periodic=False, seed=seed).heights)
 
 
+def continuous_surfaces(sizes: list[int], seed: int = 2) -> dict[int, np.ndarray]:
+    """One surface with its cut-off at L/16 (8 nodes of the coarsest grid), generated on the
+    finest grid and decimated: the same continuous surface sampled at each n (n = 2^k)."""
+    from roughcontact.surfaces import Topography, coarsen, fourier_surface
+
+    finest = max(sizes)
+    s = 1.0 / finest
+    fine = fourier_surface(finest, s, hurst=0.8, rms_slope=1.0, rolloff_wavelength=1.0,
+                           short_cutoff_wavelength=1.0 / 16, periodic=False, seed=seed)
+    out = {}
+    for n in sizes:
+        coarse = coarsen(Topography(fine.heights, s), finest // n, "decimate") if n < finest else fine
+        out[n] = np.asarray(coarse.heights)
+    return out
+
+
 def peak_memory() -> int:
     with open("/proc/self/status") as status:
         for line in status:
@@ -73,12 +89,13 @@ def worker(args) -> None:
     flat = Interface(Material(1.0, 0.0))                      # E* = 1 against a rigid flat
     rows: list[dict] = []
     for path in args.surfaces:
+        series = "kernels" if Path(path).name.startswith("continuous") else "timing"
         heights = np.load(path)
         n = heights.shape[0]
         topo = Topography(heights, 1.0 / n)
         load = PRESSURE * topo.nominal_area
         times, result = [], None
-        repeats = 1 if n >= 2048 else args.repeats
+        repeats = 1 if n >= 2048 or series == "kernels" else args.repeats
         for _ in range(repeats):
             comm.Barrier()
             t0 = time.perf_counter()
@@ -90,7 +107,8 @@ def worker(args) -> None:
             times.append(time.perf_counter() - t0)
         memory = comm.allreduce(peak_memory(), op=MPI.MAX)
         emit(comm, rows, {
-            "code": "roughcontact", "n": n, "ranks": comm.Get_size(), "seconds": float(np.median(times)),
+            "series": series, "code": "roughcontact", "n": n, "ranks": comm.Get_size(),
+            "seconds": float(np.median(times)),
             "repeats": repeats, "iterations": result.linear_iterations,
             "coarse_iterations": result.coarse_iterations, "contact_fraction": result.contact_fraction,
             "peak_rss_bytes_per_rank": memory, "bytes_per_node_per_rank": memory / (n * n),
@@ -161,7 +179,8 @@ def peers_available(python: str) -> list[str]:
 
 # --------------------------------------------------------------------------- report
 def growth(rows: list[dict], ranks: int) -> float | None:
-    points = sorted((r["n"] ** 2, r["seconds"]) for r in rows if r["code"] == "roughcontact" and r["ranks"] == ranks)
+    points = sorted((r["n"] ** 2, r["seconds"]) for r in rows
+                    if r["code"] == "roughcontact" and r["ranks"] == ranks and r["series"] == "timing")
     if len(points) < 2:
         return None
     nodes, seconds = np.log([p[0] for p in points]), np.log([p[1] for p in points])
@@ -177,19 +196,22 @@ def figure(rows: list[dict], path: Path) -> None:
     fig, (left, right) = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
     series = sorted({(r["code"], r.get("ranks", 1)) for r in rows if r.get("seconds")})
     for code, ranks in series:
-        points = sorted((r["n"], r["seconds"], r["contact_fraction"]) for r in rows
-                        if r["code"] == code and r.get("ranks", 1) == ranks and r.get("seconds"))
         label = f"{code} ({ranks} rank{'s' if ranks > 1 else ''})" if code == "roughcontact" else code
-        left.loglog([p[0] ** 2 for p in points], [p[1] for p in points], "o-", label=label)
-        right.semilogx([p[0] for p in points], [p[2] for p in points], "o-", label=label)
+        timing = sorted((r["n"], r["seconds"]) for r in rows if r["series"] == "timing" and r["code"] == code
+                        and r.get("ranks", 1) == ranks and r.get("seconds"))
+        left.loglog([p[0] ** 2 for p in timing], [p[1] for p in timing], "o-", label=label)
+        if code != "roughcontact" or ranks == 1:
+            kernels = sorted((r["n"], r["contact_fraction"]) for r in rows if r["series"] == "kernels"
+                             and r["code"] == code and r.get("contact_fraction"))
+            right.semilogx([p[0] for p in kernels], [p[1] for p in kernels], "o-", label=label.split(" (")[0])
     targets = {512: 1.5, 1024: 5.0, 2048: 25.0}
     left.loglog([n * n for n in targets], list(targets.values()), "k_", markersize=14, label="target")
     left.set_xlabel("nodes N")
     left.set_ylabel("wall time of one normal solve [s]")
     left.legend(fontsize=8)
     left.grid(alpha=0.3, which="both")
-    right.set_xlabel("nodes per side n")
-    right.set_ylabel("contact fraction A_r / A_0")
+    right.set_xlabel("nodes per side n (one continuous surface, decimated)")
+    right.set_ylabel("contact fraction A_r / A_0 at 0.01 E*")
     right.legend(fontsize=8)
     right.grid(alpha=0.3)
     fig.savefig(path, dpi=120)
@@ -206,6 +228,8 @@ def main() -> None:
     parser.add_argument("--peers-python", default=sys.executable)
     parser.add_argument("--peer-sizes", type=int, nargs="+", default=[128, 256, 512, 1024])
     parser.add_argument("--peer-timeout", type=float, default=900.0)
+    parser.add_argument("--kernel-sizes", type=int, nargs="+", default=[128, 256, 512, 1024],
+                        help="the same continuous surface at these n (powers of 2), every code")
     parser.add_argument("--peer", choices=["tamaas", "contactmechanics"], help=argparse.SUPPRESS)
     parser.add_argument("--surface", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -217,24 +241,33 @@ def main() -> None:
     output = Path(args.output)
     output.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
-        surfaces = {}
+        surfaces, continuous = {}, {}
         for n in args.sizes:
             surfaces[n] = Path(tmp) / f"surface-{n}.npy"
             np.save(surfaces[n], make_surface(n))
+        for n, heights in continuous_surfaces(args.kernel_sizes).items():
+            continuous[n] = Path(tmp) / f"continuous-{n}.npy"
+            np.save(continuous[n], heights)
         rows = run_on_ranks(__file__, args.ranks, ["--repeats", str(args.repeats), "--surfaces",
-                                                   *[str(surfaces[n]) for n in args.sizes]])
+                                                   *[str(surfaces[n]) for n in args.sizes],
+                                                   *[str(continuous[n]) for n in args.kernel_sizes]])
         names = peers_available(args.peers_python)
         notes = [] if names else [f"Tamaas and ContactMechanics are not importable from {args.peers_python}: "
                                   "peers skipped (pip install tamaas ContactMechanics, then --peers-python)"]
         for name in names:
-            for n in args.peer_sizes:
-                if n in surfaces:
-                    row = run_peer(args.peers_python, name, surfaces[n], args.peer_timeout)
-                    print(json.dumps(row), flush=True)
-                    rows.append(row)
-    ours = {(r["n"], r["ranks"]): r for r in rows if r["code"] == "roughcontact"}
+            for series, files, sizes in (("timing", surfaces, args.peer_sizes),
+                                         ("kernels", continuous, args.kernel_sizes)):
+                for n in sizes:
+                    if n in files:
+                        row = {"series": series, **run_peer(args.peers_python, name, files[n], args.peer_timeout)}
+                        print(json.dumps(row), flush=True)
+                        rows.append(row)
+    ours = {(r["n"], r["ranks"]): r for r in rows if r["code"] == "roughcontact" and r["series"] == "timing"}
+    mine = {r["n"]: r["contact_fraction"] for r in rows if r["code"] == "roughcontact" and r["series"] == "kernels"}
     for row in rows:
-        if row["code"] != "roughcontact" and row.get("seconds"):
+        if row["series"] == "kernels" and row["code"] != "roughcontact" and row.get("contact_fraction"):
+            row["contact_fraction_over_roughcontact"] = row["contact_fraction"] / mine[row["n"]]
+        if row["series"] == "timing" and row["code"] != "roughcontact" and row.get("seconds"):
             for ranks in args.ranks:
                 if (row["n"], ranks) in ours:
                     row[f"ratio_to_roughcontact_{ranks}_ranks"] = row["seconds"] / ours[(row["n"], ranks)]["seconds"]

@@ -29,6 +29,9 @@ from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _ranks import save_json  # noqa: E402
+
 PRESSURES = (1e-4, 1e-3, 1e-2, 0.1, 0.3, 1.0)
 DIMENSIONS = (2.1, 2.3, 2.5, 2.8)
 METHODS = ("ksp", "gauss-seidel", "cg")
@@ -140,13 +143,10 @@ def main() -> None:
             for r in done:
                 print(json.dumps(r), flush=True)
             rows += done
-    path = Path(args.output)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(rows, indent=1))
+    path = save_json(rows, args.output, f" and {Path(args.output).with_suffix('.png')}")
     heat_maps(rows, path.with_suffix(".png"))
     failures = [r for r in rows if r["outcome"] not in ("converged", "not run")]
     print(f"{len(failures)} of {sum(r['outcome'] != 'not run' for r in rows)} cases did not converge")
-    print(f"wrote {path} and {path.with_suffix('.png')}")
 
 
 if __name__ == "__main__":

@@ -118,6 +118,9 @@ def analyse(ds: xr.Dataset, comm=None, footprint: np.ndarray | None = None, load
         dim = next((d for d in ("Q", "Q_over_fP") if sweep is not None and d in sweep.dims), None)
         if dim and "slip_area" in sweep:
             attempt("slip_area", lambda s=sweep, d=dim: slip_area_linearity(s, dim=d, on_error="mark"))
+    for measure in measures.values():   # the axes keep the units and long_name the results gave them
+        for coord in set(measure.coords) & set(ds.coords):
+            measure[coord].attrs = {**ds[coord].attrs, **measure[coord].attrs}
     renamed = [m.rename({"undefined": f"{name}_undefined"}) if "undefined" in m else m
                for name, m in measures.items()]
     merged = xr.merge(renamed, compat="no_conflicts", combine_attrs="drop_conflicts", join="outer")
@@ -131,7 +134,8 @@ def analyse(ds: xr.Dataset, comm=None, footprint: np.ndarray | None = None, load
 def views(result: xr.Dataset, core: tuple[str, ...], load_dim: str = LOAD) -> tuple[str, list]:
     """What one figure can show: the mean over ``seed`` (when it has 2 or more; the note says so), then
     one view per value of every other dimension but the load, named by a suffix such as
-    ``_fractal_dimension2.3``. Returns (note, [(suffix, view), …])."""
+    ``_fractal_dimension2.3`` and a caption such as ``fractal_dimension = 2.3``.
+    Returns (note, [(suffix, caption, view), …])."""
     note = ""
     if "seed" in result.dims and result.sizes["seed"] > 1:
         note = f", mean over {result.sizes['seed']} seeds"
@@ -142,9 +146,10 @@ def views(result: xr.Dataset, core: tuple[str, ...], load_dim: str = LOAD) -> tu
     out = []
     for index in itertools.product(*(range(result.sizes[d]) for d in others)):
         view = result.isel(dict(zip(others, index)))
-        suffix = "".join(f"_{d}{view[d].values.item():g}" if d in view.coords and
-                         np.issubdtype(view[d].dtype, np.number) else f"_{d}{i}" for d, i in zip(others, index))
-        out.append((suffix, view))
+        values = [f"{view[d].values.item():g}" if d in view.coords and np.issubdtype(view[d].dtype, np.number)
+                  else str(i) for d, i in zip(others, index)]
+        out.append(("".join(f"_{d}{v}" for d, v in zip(others, values)),
+                    ", ".join(f"{d} = {v}" for d, v in zip(others, values)), view))
     return note, out
 
 
@@ -174,7 +179,7 @@ def draw(measures: dict[str, xr.Dataset], ds: xr.Dataset, directory: str | Path,
                 [d for d in result.dims if d != load_dim]) > 0:
             continue   # these figures draw the raw curve beside the fit: one sample only
         note, shown = views(result, _CORE[measure], load_dim)
-        for suffix, view in shown:
+        for suffix, caption, view in shown:
             out.append(drawers[measure](view, directory / f"{name}_{measure}{suffix}.png",
-                                        title=f"{name}{suffix.replace('_', ' ')}{note}"))
+                                        title=", ".join(filter(None, (name, caption))) + note))
     return out

@@ -10,6 +10,7 @@ from .cattaneo import CattaneoSolver, first_touch_gap, incipient_sliding_energy
 from .dataset import fretting_dataset, tangential_dataset
 from .energy import frictional_energy, loop_area, stored_energy, work
 from .fretting import FrettingCycle, fretting_cycle, reversal_traction
+from .history import TangentialHistory, tangential_history
 from .model import CattaneoConsistencyWarning, UncoupledApproximationWarning, cattaneo_model
 from .result import TangentialState
 from .sweep import TangentialSweep, tangential_loads, tangential_sweep

@@ -50,16 +50,13 @@ def errors(uncoupled, coupled, spacing: float) -> dict[str, float]:
 
 def surfaces(level: int):
     """(name, topography, load P, friction f) of each case, on 2^level + 1 nodes a side."""
-    import sys
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-    from conftest import sphere_heights
     from roughcontact.surfaces import Topography, midpoint_surface
 
     n = 2**level + 1
-    a_over_s = (n - 1) / 2.4
-    spacing = 50e-6 / a_over_s
-    yield "hertz", Topography(sphere_heights(n, spacing, 0.01), spacing), None, 0.5
+    spacing = 50e-6 / ((n - 1) / 2.4)                 # a = 50 µm spans 2.4 a / s nodes
+    x = (np.arange(n) - (n - 1) / 2) * spacing
+    sphere = -(x[:, None] ** 2 + x[None, :] ** 2) / (2 * 0.01)     # Δh = −r²/(2R), R = 10 mm
+    yield "hertz", Topography(sphere, spacing), None, 0.5
     for dimension in (2.1, 2.3, 2.5):
         yield (f"rough D={dimension}", midpoint_surface(level, dimension, spacing=1e-4, rms_height=1e-5, seed=3),
                100.0, 0.6)

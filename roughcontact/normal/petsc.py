@@ -29,6 +29,40 @@ def ksp_reason_name(reason: int) -> str:
     return _REASONS.get(int(reason), str(int(reason)))
 
 
+def solve_checked(ksp, mat, b, x, r, what: str) -> int:
+    """Solve ``mat`` x = b from the guess in ``x``; a negative converged reason raises.
+
+    A warm start worse than zero (a much smaller load, a receding set) is
+    dropped: CG would otherwise start from a residual far above |b| and may
+    stop on PETSc's divergence test before its first iteration. ``r`` is a
+    work vector; ``what`` names the solve in the error.
+
+    Returns
+    -------
+    int
+        The Krylov iterations.
+
+    Raises
+    ------
+    ConvergenceError
+        Named ``KSP_<reason>`` when the KSP diverged.
+    """
+    mat.mult(x, r)
+    r.aypx(-1.0, b)
+    if r.norm() > b.norm():
+        x.set(0.0)
+    ksp.solve(b, x)
+    reason = ksp.getConvergedReason()
+    its = ksp.getIterationNumber()
+    if reason < 0:
+        prefix = ksp.getOptionsPrefix() or ""
+        raise ConvergenceError(
+            "KSP_" + ksp_reason_name(reason),
+            f"{what} stopped after {its} iterations with residual norm {ksp.getResidualNorm():.3e}; "
+            f"raise -{prefix}ksp_max_it or loosen -{prefix}ksp_rtol")
+    return its
+
+
 class OptionsScope:
     """Insert options under a prefix for the life of an object, then remove them."""
 
@@ -122,23 +156,9 @@ class KSPSubsolver:
     def solve(self, rhs: np.ndarray, guess: np.ndarray) -> tuple[np.ndarray, int]:
         self.b.getArray()[:] = rhs
         self.x.getArray()[:] = guess
-        # a warm start worse than zero (a much smaller load, a receding set) is dropped: CG
-        # would otherwise start from a residual far above |b| and may stop on PETSc's
-        # divergence test before its first iteration
-        self.sub.mult(self.x, self.r)
-        self.r.aypx(-1.0, self.b)
-        if self.r.norm() > self.b.norm():
-            self.x.set(0.0)
-        self.ksp.solve(self.b, self.x)
-        reason = self.ksp.getConvergedReason()
-        its = self.ksp.getIterationNumber()
-        if reason < 0:
-            raise ConvergenceError(
-                "KSP_" + ksp_reason_name(reason),
-                f"the Krylov solve on the contact set ({self.sub.getSize()[0]} nodes, "
-                f"{self.description}) stopped after {its} iterations with residual norm "
-                f"{self.ksp.getResidualNorm():.3e}; raise -{self.ksp.getOptionsPrefix()}ksp_max_it "
-                "or loosen -ksp_rtol")
+        its = solve_checked(self.ksp, self.sub, self.b, self.x, self.r,
+                            f"the Krylov solve on the contact set ({self.sub.getSize()[0]} nodes, "
+                            f"{self.description})")
         return self.x.getArray().copy(), its
 
     def _free_sub(self) -> None:

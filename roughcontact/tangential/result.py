@@ -8,8 +8,31 @@ import numpy as np
 from ..normal.result import NormalResult
 
 
+class LoadedContact:
+    """The load measures shared by the tangential states: P, Q / (f P) and the contact area.
+
+    Needs the fields ``normal`` (the actual normal solution), ``tangential``
+    (Q along the load direction) and ``friction`` (f).
+    """
+
+    @property
+    def normal_load(self) -> float:
+        """P of the actual normal problem (N)."""
+        return self.normal.load
+
+    @property
+    def load_ratio(self) -> float:
+        """Q / (f P)."""
+        return self.tangential / (self.friction * self.normal.load)
+
+    @property
+    def contact_area(self) -> float:
+        """Area of the normal contact set (m²)."""
+        return self.normal.contact_area
+
+
 @dataclass(frozen=True)
-class TangentialState:
+class TangentialState(LoadedContact):
     """Partial slip under a monotonically applied Q at constant P, identical on every rank.
 
     Fields are (nx, ny) arrays on the topography's grid. Forces are nodal
@@ -95,20 +118,6 @@ class TangentialState:
     limit: bool
     spacing: float
     elapsed: float
-
-    @property
-    def normal_load(self) -> float:
-        """P of the actual normal problem (N)."""
-        return self.normal.load
-
-    @property
-    def load_ratio(self) -> float:
-        """Q / (f P)."""
-        return self.tangential / (self.friction * self.normal.load)
-
-    @property
-    def contact_area(self) -> float:
-        return self.normal.contact_area
 
     @property
     def shear_stress(self) -> np.ndarray:

@@ -84,6 +84,35 @@ def tangential_loads(friction: float, load: float, steps: int) -> np.ndarray:
     return friction * load * np.arange(steps) / steps
 
 
+def sweep_loads(problem: NormalProblem, normal: NormalResult, friction: float, steps: int | None,
+                tangential, reversals: str) -> tuple[float, np.ndarray]:
+    """The checked friction and the increasing loads Q of a monotonic sweep.
+
+    Either ``steps`` (Q = k fP / N, :func:`tangential_loads`) or
+    ``tangential`` (a non-empty increasing list, each Q in [0, fP)), not both;
+    ``reversals`` tells the user where non-monotonic loading goes.
+    """
+    friction = check_friction(friction)
+    if (steps is None) == (tangential is None):
+        raise InputError("steps", "give either steps (Q = k fP / N) or tangential (a list of Q), not both")
+    check_normal(problem, normal)
+    if steps is not None:
+        return friction, tangential_loads(friction, normal.load, steps)
+    loads = np.atleast_1d(np.asarray(tangential, dtype=float))
+    if loads.size == 0:
+        raise InputError("tangential", "is empty")
+    for q in loads:
+        check_tangential(q, friction, normal.load)
+    if np.any(np.diff(loads) < 0.0):
+        raise InputError("tangential", f"must be increasing (monotonic loading; {reversals})")
+    return friction, loads
+
+
+def resticking_nodes(states) -> int:
+    """The most nodes that joined the stick set between two successive states."""
+    return max((int((b.stick & ~a.stick).sum()) for a, b in zip(states, states[1:])), default=0)
+
+
 def tangential_sweep(problem: NormalProblem, normal: NormalResult, friction: float,
                      steps: int | None = None, tangential=None, direction=(1.0, 0.0),
                      include_limit: bool = True, **solver_options) -> TangentialSweep:
@@ -108,28 +137,15 @@ def tangential_sweep(problem: NormalProblem, normal: NormalResult, friction: flo
         ``method``, ``settings``, ``rtol``, ``options``, ``prefix`` of the
         corrective solver (:class:`CattaneoSolver`).
     """
-    friction = check_friction(friction)
-    if (steps is None) == (tangential is None):
-        raise InputError("steps", "give either steps (Q = k fP / N) or tangential (a list of Q), not both")
-    check_normal(problem, normal)
-    if steps is not None:
-        loads = tangential_loads(friction, normal.load, steps)
-    else:
-        loads = np.atleast_1d(np.asarray(tangential, dtype=float))
-        if loads.size == 0:
-            raise InputError("tangential", "is empty")
-        for q in loads:
-            check_tangential(q, friction, normal.load)
-        if np.any(np.diff(loads) < 0.0):
-            raise InputError("tangential", "must be increasing (monotonic loading; for load reversals "
-                                           "use fretting_cycle)")
+    friction, loads = sweep_loads(problem, normal, friction, steps, tangential,
+                                  "for load reversals use fretting_cycle")
     t0 = time.perf_counter()
     with CattaneoSolver(problem, normal, friction, direction, **solver_options) as solver:
         states = [solver.solve(q) for q in loads]
         if include_limit:
             states.append(solver.incipient_sliding())
     elapsed = time.perf_counter() - t0
-    resticking = max((int((b.stick & ~a.stick).sum()) for a, b in zip(states, states[1:])), default=0)
+    resticking = resticking_nodes(states)
     if resticking:
         warnings.warn(f"{resticking} node(s) joined the stick set between two steps of the sweep: the "
                       "stick sets do not recede, so E_f (Eq. 26) undercounts their earlier slip "

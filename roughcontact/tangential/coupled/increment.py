@@ -53,7 +53,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from ...errors import ConvergenceError, InputError
-from ...normal.petsc import OptionsScope, ksp_reason_name
+from ...normal.petsc import OptionsScope, solve_checked
 from .operator import Basis, ShearOperator, TangentPC, tangent_mat
 
 LOAD, DISPLACEMENT = "load", "displacement"
@@ -270,19 +270,8 @@ class IncrementSolver:
         self._b.getArray()[:] = rhs
         previous = self.guesses.get(name)
         self._x.getArray()[:] = basis.reduce(*previous) if previous is not None else 0.0
-        self._mat.mult(self._x, self._r)
-        self._r.aypx(-1.0, self._b)
-        if self._r.norm() > self._b.norm():
-            self._x.set(0.0)
-        self.ksp.solve(self._b, self._x)
-        reason = self.ksp.getConvergedReason()
-        its = self.ksp.getIterationNumber()
-        if reason < 0:
-            raise ConvergenceError(
-                "KSP_" + ksp_reason_name(reason),
-                f"the Krylov solve of the stick/slip Newton system ({self._mat.getSize()[0]} unknowns) "
-                f"stopped after {its} iterations with residual norm {self.ksp.getResidualNorm():.3e}; raise "
-                f"-{self.ksp.getOptionsPrefix()}ksp_max_it or loosen -{self.ksp.getOptionsPrefix()}ksp_rtol")
+        its = solve_checked(self.ksp, self._mat, self._b, self._x, self._r,
+                            f"the Krylov solve of the stick/slip Newton system ({self._mat.getSize()[0]} unknowns)")
         x = self._x.getArray().copy()
         self.guesses[name] = basis.fields(x)
         return x, its

@@ -7,13 +7,14 @@ import numpy as np
 
 from ...errors import InputError
 from ...normal.result import NormalResult
+from ..result import LoadedContact
 from ..sweep import TangentialSweep
 
 COUPLED = "coupled"
 
 
 @dataclass(frozen=True)
-class CoupledState:
+class CoupledState(LoadedContact):
     """Partial slip with the shear components coupled through γ, identical on every rank.
 
     Fields are (nx, ny) arrays on the topography's grid; forces are nodal
@@ -89,19 +90,6 @@ class CoupledState:
     elapsed: float
     model: str = COUPLED
     limit: bool = False
-
-    @property
-    def normal_load(self) -> float:
-        return self.normal.load
-
-    @property
-    def load_ratio(self) -> float:
-        """Q / (f P)."""
-        return self.tangential / (self.friction * self.normal.load)
-
-    @property
-    def contact_area(self) -> float:
-        return self.normal.contact_area
 
     @property
     def tangential_approach(self) -> float:

@@ -3,13 +3,9 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
-
-from ...errors import InputError
 from ...normal.problem import NormalProblem
 from ...normal.result import NormalResult
-from ..cattaneo import check_friction, check_normal, check_tangential
-from ..sweep import tangential_loads
+from ..sweep import resticking_nodes, sweep_loads
 from .result import CoupledSweep
 from .solver import CoupledTangentialSolver
 
@@ -33,23 +29,9 @@ def coupled_sweep(problem: NormalProblem, normal: NormalResult, friction: float,
     **solver_options
         ``settings``, ``options``, ``prefix`` of :class:`~.solver.CoupledTangentialSolver`.
     """
-    friction = check_friction(friction)
-    if (steps is None) == (tangential is None):
-        raise InputError("steps", "give either steps (Q = k fP / N) or tangential (a list of Q), not both")
-    check_normal(problem, normal)
-    if steps is not None:
-        loads = tangential_loads(friction, normal.load, steps)
-    else:
-        loads = np.atleast_1d(np.asarray(tangential, dtype=float))
-        if loads.size == 0:
-            raise InputError("tangential", "is empty")
-        for q in loads:
-            check_tangential(q, friction, normal.load)
-        if np.any(np.diff(loads) < 0.0):
-            raise InputError("tangential", "must be increasing (a monotonic sweep; for a load history call "
-                                           "CoupledTangentialSolver.solve load by load)")
+    friction, loads = sweep_loads(problem, normal, friction, steps, tangential,
+                                  "for a load history call CoupledTangentialSolver.solve load by load")
     t0 = time.perf_counter()
     with CoupledTangentialSolver(problem, normal, friction, direction, **solver_options) as solver:
         states = tuple(solver.solve(float(q)) for q in loads)
-    resticking = max((int((b.stick & ~a.stick).sum()) for a, b in zip(states, states[1:])), default=0)
-    return CoupledSweep(states=states, elapsed=time.perf_counter() - t0, resticking_nodes=resticking)
+    return CoupledSweep(states=states, elapsed=time.perf_counter() - t0, resticking_nodes=resticking_nodes(states))

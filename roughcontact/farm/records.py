@@ -134,7 +134,7 @@ def _sweep_dataset(outcome: TaskOutcome, index: int) -> xr.Dataset:
     ds["resticking_nodes"] = ((), ds.attrs["resticking_nodes"],
                               {"units": "1", "long_name": "largest number of nodes rejoining the stick set"})
     ds["sweep_elapsed"] = ((), ds.attrs["sweep_elapsed"], {"units": "s", "long_name": "wall time of the sweep"})
-    ds.attrs = {"cattaneo_model": ds.attrs["cattaneo_model"], "friction": ds.attrs["friction"]}
+    ds.attrs = _model_attrs(ds.attrs)
     return ds
 
 
@@ -144,8 +144,15 @@ def _cycle_dataset(outcome: TaskOutcome, index: int) -> xr.Dataset:
                                    ("loop_area", "J", "area of the Q–δx loop"),
                                    ("dissipated_per_cycle", "J", "energy dissipated per cycle")):
         ds[name] = ((), ds.attrs[name], {"units": units, "long_name": long_name})
-    ds.attrs = {"cattaneo_model": ds.attrs["cattaneo_model"], "friction": ds.attrs["friction"]}
+    ds.attrs = _model_attrs(ds.attrs)
     return ds
+
+
+def _model_attrs(attrs: dict) -> dict:
+    """What a tangential group keeps of its dataset's attributes: the Cattaneo model, the
+    measured error of the uncoupled model (``uncoupled_error_*``) and f."""
+    return {k: v for k, v in attrs.items()
+            if k in ("cattaneo_model", "friction") or k.startswith("uncoupled_error_")}
 
 
 def _stack(outcome: TaskOutcome, runs: dict, build, values: np.ndarray) -> xr.Dataset:

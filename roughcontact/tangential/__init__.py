@@ -4,7 +4,8 @@ A partial-slip state at shear load Q is the difference of two normal
 solutions (Eqs. 21–24): :class:`CattaneoSolver` builds it at one Q,
 :func:`tangential_sweep` over Q from 0 to fP, :func:`fretting_cycle` the
 cyclic (Mindlin–Deresiewicz) loop between ±Q*. Results are exact for β = γ
-= 0 and labelled the uncoupled approximation otherwise (:mod:`.model`).
+= 0 and labelled the uncoupled approximation otherwise (:mod:`.model`), with
+the measured error of that approximation (:mod:`.uncoupled_error`).
 """
 from .cattaneo import CattaneoSolver, first_touch_gap, incipient_sliding_energy
 from .dataset import fretting_dataset, tangential_dataset

@@ -265,7 +265,8 @@ class CattaneoSolver(Collective):
             frictional_energy=frictional_energy(normal.force, slip_distance, slip, f),
             stored_energy=stored_energy(traction, displacement),
             coulomb_violation=violation, model=self.model, limit=limit, spacing=s,
-            elapsed=time.perf_counter() - t0)
+            elapsed=time.perf_counter() - t0, gamma=float(self.problem.interface.composite_poisson),
+            beta=float(self.problem.interface.dundurs_beta))
 
     def _displacement(self, traction: np.ndarray) -> np.ndarray:
         """u_x = H q̄ (Eq. 17) on the footprint, NaN outside it."""

@@ -4,8 +4,10 @@ Variables carry ``units`` and ``long_name`` as in :mod:`roughcontact.datasets`;
 write them with :func:`roughcontact.datasets.write_netcdf`. A sweep's
 dimension is ``Q`` (the tangential load, N) with the coordinate
 ``Q_over_fP`` on it, so ``ds.swap_dims(Q="Q_over_fP")`` plots against Q/fP.
-Global attributes say whether the model is exact (``cattaneo_model``),
-record the normal state, E_tot (Eq. 27) and the wall times of the normal solve and
+Global attributes say whether the model is exact (``cattaneo_model``) and,
+when it is not, the measured error of the uncoupled model for the
+dataset's γ and Q/fP (``uncoupled_error_<metric>``,
+:mod:`.uncoupled_error`), record the normal state, E_tot (Eq. 27) and the wall times of the normal solve and
 of the sweep.
 """
 from __future__ import annotations
@@ -17,6 +19,7 @@ import xarray as xr
 
 from .. import __version__
 from ..datasets import grid_coords, scalar_variables
+from .uncoupled_error import uncoupled_error_attrs
 
 if TYPE_CHECKING:
     from .fretting import FrettingCycle
@@ -86,6 +89,8 @@ def tangential_dataset(sweep: "TangentialSweep", fields: bool = True,
     ds.attrs.update({
         "roughcontact_version": __version__,
         "cattaneo_model": sweep.model,
+        "composite_poisson_gamma": last.gamma, "dundurs_beta": last.beta,
+        **uncoupled_error_attrs(last.gamma, last.beta, [s.load_ratio for s in states if not s.limit]),
         "friction": sweep.friction,
         "direction_x": last.direction[0], "direction_y": last.direction[1],
         "normal_load": normal.load, "closure": normal.closure,
@@ -105,6 +110,7 @@ def tangential_dataset(sweep: "TangentialSweep", fields: bool = True,
 def fretting_dataset(cycle: "FrettingCycle", attrs: dict | None = None) -> xr.Dataset:
     """The Q–δx path of a fretting cycle (loading, unloading, reloading) along ``step``."""
     dim = "step"
+    first = cycle.loading.states[0]
     data = {
         "tangential_approach": ((dim,), cycle.approach, {"units": "m", "long_name": "tangential approach δx"}),
         "reverse_slip_area": ((dim,), cycle.reverse_slip_area,
@@ -122,8 +128,11 @@ def fretting_dataset(cycle: "FrettingCycle", attrs: dict | None = None) -> xr.Da
     ds = xr.Dataset(data, coords=coords)
     ds.attrs.update({
         "roughcontact_version": __version__, "cattaneo_model": cycle.model,
+        # a cycle reverses the load: the chart covers monotonic loading only
+        **uncoupled_error_attrs(first.gamma, first.beta, None),
         "friction": cycle.friction, "normal_load": cycle.normal_load, "amplitude": cycle.amplitude,
         "loop_area": cycle.loop_area, "dissipated_per_cycle": cycle.dissipated_per_cycle,
     })
     ds.attrs.update(attrs or {})
     return ds
+

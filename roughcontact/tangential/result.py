@@ -89,6 +89,9 @@ class TangentialState(LoadedContact):
         Grid spacing s (m).
     elapsed
         Wall time to build this state (the corrective solve and the post-processing), s.
+    gamma, beta
+        Composite Poisson ratio γ (Eq. 4b) and Dundurs' β (Eq. 5) of the
+        interface: the model is exact when both vanish.
     """
 
     tangential: float
@@ -118,6 +121,8 @@ class TangentialState(LoadedContact):
     limit: bool
     spacing: float
     elapsed: float
+    gamma: float = 0.0
+    beta: float = 0.0
 
     @property
     def shear_stress(self) -> np.ndarray:

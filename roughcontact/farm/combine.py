@@ -96,6 +96,8 @@ def combine(study, paths) -> dict[str, xr.Dataset]:
     sizes = {study.load_dim: len(study.loads)}
     if study.tangential is not None:
         sizes.update(Q_over_fP=study.tangential.steps + 1, step=3 * (study.tangential.fretting_steps + 1))
+    if study.fretting is not None:
+        sizes.update(amplitude=len(study.fretting.amplitudes))
     groups: dict[str, _Group] = {}
     for task in study.tasks():
         for name, (variables, attrs) in read_groups(paths[task.index]).items():

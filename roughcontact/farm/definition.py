@@ -24,6 +24,11 @@ Example (the built-in default, also ``studies/fractal_ensemble.toml``)::
     loads = [25.0, 68.2, ...]       # N, increasing; or pressures = [...] (Pa, σ0 = P/A0)
     [output]
     fields = "all"                  # "none" | "contact" | "all"
+
+A ``[tangential]`` table adds Q sweeps (and one fretting cycle) at some
+loads, a ``[fretting]`` table the fretting map: one cycle at each of
+several amplitudes, energy per cycle against amplitude
+(``studies/fretting_map.toml``).
 """
 from __future__ import annotations
 
@@ -43,7 +48,7 @@ from ..errors import InputError
 from ..materials import Interface, Material
 from . import schema
 from .axes import Dimension, check_value, parse_axes, positions
-from .task import NormalOptions, TangentialOptions, Task, generators
+from .task import FrettingOptions, NormalOptions, TangentialOptions, Task, generators
 
 DEFAULT_STUDY: dict[str, Any] = {
     "name": "fractal-ensemble",
@@ -58,7 +63,8 @@ DEFAULT_STUDY: dict[str, Any] = {
 
 #: keys every surface table accepts besides its generator's own arguments
 COMMON_SURFACE_KEYS = {"generator", "detrend", "mate_shift", "footprint_diameter", "coarsening"}
-_TABLES = {"name", "description", "surface", "axes", "materials", "normal", "tangential", "output", "farm"}
+_TABLES = {"name", "description", "surface", "axes", "materials", "normal", "tangential", "fretting", "output",
+           "farm"}
 _SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
 
 
@@ -74,6 +80,7 @@ class Study:
     load_dim: str = "normal_load"
     normal: NormalOptions = field(default_factory=NormalOptions)
     tangential: TangentialOptions | None = None
+    fretting: FrettingOptions | None = None
     fields: str = "contact"
     ranks_per_task: int = 1
     description: str = ""
@@ -101,7 +108,7 @@ class Study:
             out.append(Task(index=index, position=position, labels=values, surface=surface,
                             interface=values.get("materials", self.interface), loads=self.loads,
                             load_dim=self.load_dim, normal=self.normal, tangential=self.tangential,
-                            fields=self.fields))
+                            fretting=self.fretting, fields=self.fields))
         return out
 
 
@@ -145,6 +152,7 @@ def load_study(source: str | Path | dict | None = None) -> Study:
     interface = _materials(raw, "materials" in varied)
     loads, load_dim, normal = _normal(schema.section(raw, "normal"))
     tangential = _tangential(schema.section(raw, "tangential"), loads, load_dim)
+    fretting = _fretting(schema.section(raw, "fretting"), loads, load_dim, tangential)
     output = schema.section(raw, "output")
     schema.only(output, {"fields"}, "output")
     fields = check_fields(schema.string("output.fields", output.get("fields", "contact")), "output.fields")
@@ -152,7 +160,8 @@ def load_study(source: str | Path | dict | None = None) -> Study:
     schema.only(farm, {"ranks_per_task"}, "farm")
     ranks = schema.integer("farm.ranks_per_task", farm.get("ranks_per_task", 1), minimum=1)
     study = Study(name=name, surface=surface, dimensions=dimensions, interface=interface, loads=loads,
-                  load_dim=load_dim, normal=normal, tangential=tangential, fields=fields, ranks_per_task=ranks,
+                  load_dim=load_dim, normal=normal, tangential=tangential, fretting=fretting, fields=fields,
+                  ranks_per_task=ranks,
                   description=schema.string("description", raw.get("description", "")),
                   text=text or json.dumps(raw, indent=1, default=str), base_dir=base_dir)
     return replace(study, definition=_definition(raw, study))
@@ -228,22 +237,56 @@ def _tangential(table: dict, loads: tuple[float, ...], load_dim: str) -> Tangent
         raise InputError("tangential.friction", "is required (the Coulomb coefficient f)")
     friction = schema.number("tangential.friction", table["friction"], positive=True)
     steps = schema.integer("tangential.steps", table.get("steps", 10), minimum=1)
-    at = table.get("at", [p for p in loads if p > 0])
-    indices = []
-    for value in schema.array("tangential.at", at):
-        schema.number("tangential.at", value)
-        if value not in loads:
-            raise InputError("tangential.at", f"{value!r} is not one of the study's {load_dim} values")
-        if value == 0:
-            raise InputError("tangential.at", "a tangential load needs P > 0 (fP is the limit of Q)")
-        indices.append(loads.index(value))
+    indices = _at(table, "tangential", loads, load_dim)
     amplitude = table.get("fretting_amplitude")
     if amplitude is not None:
         amplitude = schema.number("tangential.fretting_amplitude", amplitude, positive=True)
         if amplitude >= 1.0:
             raise InputError("tangential.fretting_amplitude", f"is Q*/(fP) and must lie in (0, 1), got {amplitude!r}")
     fretting_steps = schema.integer("tangential.fretting_steps", table.get("fretting_steps", steps), minimum=1)
-    return TangentialOptions(friction, steps, tuple(sorted(set(indices))), amplitude, fretting_steps)
+    return TangentialOptions(friction, steps, indices, amplitude, fretting_steps)
+
+
+def _at(table: dict, where: str, loads: tuple[float, ...], load_dim: str) -> tuple[int, ...]:
+    """Indices of the loads ``table["at"]`` names (default: every load > 0)."""
+    at = table.get("at", [p for p in loads if p > 0])
+    indices = []
+    for value in schema.array(f"{where}.at", at):
+        schema.number(f"{where}.at", value)
+        if value not in loads:
+            raise InputError(f"{where}.at", f"{value!r} is not one of the study's {load_dim} values")
+        if value == 0:
+            raise InputError(f"{where}.at", "a tangential load needs P > 0 (fP is the limit of Q)")
+        indices.append(loads.index(value))
+    return tuple(sorted(set(indices)))
+
+
+def _fretting(table: dict, loads: tuple[float, ...], load_dim: str,
+              tangential: TangentialOptions | None) -> FrettingOptions | None:
+    """The fretting map: one cycle ±Q* at each amplitude Q*/(fP), at some loads."""
+    if not table:
+        return None
+    schema.only(table, {"friction", "amplitudes", "steps", "at"}, "fretting")
+    if "friction" in table:
+        friction = schema.number("fretting.friction", table["friction"], positive=True)
+        if tangential is not None and friction != tangential.friction:
+            raise InputError("fretting.friction", f"is {friction!r} but tangential.friction is "
+                                                  f"{tangential.friction!r}; give f in one place")
+    elif tangential is not None:
+        friction = tangential.friction
+    else:
+        raise InputError("fretting.friction", "is required (the Coulomb coefficient f) unless [tangential] gives it")
+    if "amplitudes" not in table:
+        raise InputError("fretting.amplitudes", "is required (Q*/(fP) of each cycle, increasing, in (0, 1))")
+    amplitudes = [schema.number("fretting.amplitudes", a, positive=True)
+                  for a in schema.array("fretting.amplitudes", table["amplitudes"])]
+    if max(amplitudes) >= 1.0:
+        raise InputError("fretting.amplitudes", f"are Q*/(fP) and must lie in (0, 1), got {amplitudes!r}")
+    if any(b <= a for a, b in zip(amplitudes, amplitudes[1:])):
+        raise InputError("fretting.amplitudes", f"must be strictly increasing (the amplitude is stepped up), "
+                                                f"got {amplitudes!r}")
+    steps = schema.integer("fretting.steps", table.get("steps", 8), minimum=1)
+    return FrettingOptions(friction, tuple(amplitudes), steps, _at(table, "fretting", loads, load_dim))
 
 
 def _parameters(function) -> set[str]:

@@ -7,7 +7,8 @@ coordinates (``xr.open_dataset(path, group="tangential")`` reads one):
   the fields the study stores, and the task's own scalars (``status``,
   ``message``, the composite topography's statistics);
 - ``tangential``: Q sweeps along ``Q_over_fP`` at some loads (Figs. 9–12);
-- ``fretting``: fretting cycles along ``step``.
+- ``fretting``: fretting cycles along ``step``;
+- ``fretting_map``: energy per cycle along ``amplitude`` (Q*/fP) at some loads.
 
 Tangential groups keep the full load dimension of ``/`` (NaN, or −1 for
 the int8 zones, at loads without a sweep), so the groups align as a tree.
@@ -45,7 +46,7 @@ INT8_FILL = -1
 
 
 def task_groups(outcome: TaskOutcome) -> dict[str, xr.Dataset]:
-    """The datasets of a task file, by group ("/", and "tangential", "fretting" when run)."""
+    """The datasets of a task file, by group ("/", and "tangential", "fretting", "fretting_map" when run)."""
     task = outcome.task
     dim = task.load_dim
     values = np.asarray(task.loads[:len(outcome.normal)], dtype=float)
@@ -71,6 +72,8 @@ def task_groups(outcome: TaskOutcome) -> dict[str, xr.Dataset]:
         groups["tangential"] = _stack(outcome, outcome.sweeps, _sweep_dataset, values)
     if outcome.cycles:
         groups["fretting"] = _stack(outcome, outcome.cycles, _cycle_dataset, values)
+    if outcome.fretting_maps:
+        groups["fretting_map"] = _stack(outcome, outcome.fretting_maps, _map_dataset, values)
     return groups
 
 
@@ -144,6 +147,12 @@ def _cycle_dataset(outcome: TaskOutcome, index: int) -> xr.Dataset:
                                    ("loop_area", "J", "area of the Q–δx loop"),
                                    ("dissipated_per_cycle", "J", "energy dissipated per cycle")):
         ds[name] = ((), ds.attrs[name], {"units": units, "long_name": long_name})
+    ds.attrs = _model_attrs(ds.attrs)
+    return ds
+
+
+def _map_dataset(outcome: TaskOutcome, index: int) -> xr.Dataset:
+    ds = outcome.fretting_maps[index].dataset()
     ds.attrs = _model_attrs(ds.attrs)
     return ds
 

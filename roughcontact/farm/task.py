@@ -60,6 +60,21 @@ class TangentialOptions:
 
 
 @dataclass(frozen=True)
+class FrettingOptions:
+    """The fretting map (:func:`~roughcontact.tangential.fretting_map`) at some loads.
+
+    One cycle +Q* → −Q* → +Q* at each ``amplitudes`` value Q*/(fP) (increasing,
+    the amplitude stepped up), ``steps`` intervals on the way to each +Q*;
+    ``at`` holds indices into the task's loads.
+    """
+
+    friction: float
+    amplitudes: tuple[float, ...]
+    steps: int
+    at: tuple[int, ...]
+
+
+@dataclass(frozen=True)
 class Task:
     """Everything one task needs, and nothing else (pickled to the rank that solves it).
 
@@ -78,6 +93,7 @@ class Task:
     load_dim: str = "normal_load"
     normal: NormalOptions = field(default_factory=NormalOptions)
     tangential: TangentialOptions | None = None
+    fretting: FrettingOptions | None = None
     fields: str = "contact"
 
     @property
@@ -145,7 +161,7 @@ class TaskOutcome:
 
     ``normal`` holds the solved loads in order; after a failure (``error``),
     the loads solved before it. ``sweeps`` and ``cycles`` are keyed by the
-    index of the load they were run at.
+    index of the load they were run at, as are ``fretting_maps``.
     """
 
     task: Task
@@ -155,6 +171,7 @@ class TaskOutcome:
     incipient_energy: list = field(default_factory=list)
     sweeps: dict = field(default_factory=dict)
     cycles: dict = field(default_factory=dict)
+    fretting_maps: dict = field(default_factory=dict)
     error: str | None = None
     warnings: tuple[str, ...] = ()
     elapsed: float = 0.0
@@ -171,7 +188,7 @@ def solve_task(task: Task, comm) -> TaskOutcome:
     outcome keeps what was solved before it and the message. Warnings are
     recorded with the outcome, not printed.
     """
-    from ..tangential import fretting_cycle, incipient_sliding_energy, tangential_sweep
+    from ..tangential import fretting_cycle, fretting_map, incipient_sliding_energy, tangential_sweep
 
     t0 = time.perf_counter()
     outcome = TaskOutcome(task=task, ranks=comm.Get_size())
@@ -187,6 +204,10 @@ def solve_task(task: Task, comm) -> TaskOutcome:
                 for i, load in enumerate(outcome.loads):
                     normal = solver.solve_load(float(load))
                     outcome.normal.append(normal)
+                    if task.fretting is not None and i in task.fretting.at:
+                        outcome.fretting_maps[i] = fretting_map(
+                            problem, normal, task.fretting.friction, task.fretting.amplitudes,
+                            task.fretting.steps, method=task.normal.method)
                     if tangential is None:
                         continue
                     f = tangential.friction

@@ -23,6 +23,7 @@ from .uncoupled_error import uncoupled_error_attrs
 
 if TYPE_CHECKING:
     from .fretting import FrettingCycle
+    from .fretting_map import FrettingMap
     from .sweep import TangentialSweep
 
 _SCALARS = {
@@ -136,3 +137,30 @@ def fretting_dataset(cycle: "FrettingCycle", attrs: dict | None = None) -> xr.Da
     ds.attrs.update(attrs or {})
     return ds
 
+
+def fretting_map_dataset(fretting: "FrettingMap", attrs: dict | None = None) -> xr.Dataset:
+    """Energy per cycle against amplitude (:class:`~.fretting_map.FrettingMap`) along ``amplitude``."""
+    dim = "amplitude"
+    data = {
+        "dissipated_per_cycle": ((dim,), fretting.dissipated_per_cycle,
+                                 {"units": "J", "long_name": "energy dissipated per cycle +Q* → −Q* → +Q* "
+                                                             "(4 E_f(Q*), Eq. 26)"}),
+        "loop_area": ((dim,), fretting.loop_area,
+                      {"units": "J", "long_name": "area of the Q–δx loop ∮ Q dδx (trapezoidal rule)"}),
+        "approach_amplitude": ((dim,), fretting.approach,
+                               {"units": "m", "long_name": "tangential approach δx at +Q* (Eq. 24)"}),
+    }
+    coords = {
+        dim: (dim, fretting.amplitudes, {"units": "1", "long_name": "amplitude Q* / (f P)"}),
+        "Q": (dim, fretting.tangential, {"units": "N", "long_name": "amplitude Q* of the cycle"}),
+    }
+    ds = xr.Dataset(data, coords=coords)
+    ds.attrs.update({
+        "roughcontact_version": __version__, "cattaneo_model": fretting.model,
+        # cycles reverse the load: the chart of the uncoupled error covers monotonic loading only
+        **uncoupled_error_attrs(fretting.gamma, fretting.beta, None),
+        "friction": fretting.friction, "normal_load": fretting.normal.load,
+        "history_points": fretting.history.tangential.size,
+    })
+    ds.attrs.update(attrs or {})
+    return ds

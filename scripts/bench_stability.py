@@ -96,7 +96,8 @@ def heat_maps(rows: list[dict], path: Path) -> None:
             ax.imshow(grid, cmap="viridis", vmin=-2.5, vmax=2.5, aspect="auto", origin="lower")
             for a in range(len(DIMENSIONS)):
                 for b in range(len(PRESSURES)):
-                    ax.text(b, a, labels[a][b], ha="center", va="center", fontsize=6, color="w")
+                    ax.text(b, a, labels[a][b], ha="center", va="center", fontsize=6,
+                            color="w" if np.isfinite(grid[a, b]) else "k")   # F, T, – on the white of NaN
             ax.set_xticks(range(len(PRESSURES)), [f"{p:g}" for p in PRESSURES], fontsize=6)
             ax.set_yticks(range(len(DIMENSIONS)), [f"{d:g}" for d in DIMENSIONS], fontsize=6)
             ax.set_title(f"{method}, {n}²", fontsize=8)

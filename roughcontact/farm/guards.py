@@ -82,6 +82,7 @@ def check_operator_memory(study, nodes: int, comm) -> None:
     """
     from mpi4py import MPI
 
+    from ..normal.choice import auto_operator
     from ..operators import operator_memory
     from ..operators.memory import KINDS
 
@@ -90,8 +91,8 @@ def check_operator_memory(study, nodes: int, comm) -> None:
     node.Free()
     per_rank = comm.allreduce(available_memory() / local, op=MPI.MIN)
     kind, k = study.normal.operator, study.ranks_per_task
-    if kind == "auto":                  # an FFT operator (periodic or not: the same memory)
-        kind = "fft"
+    if kind == "auto":                  # what auto picks (the periodic FFT needs what the FFT needs)
+        kind = auto_operator(nodes, periodic=False)[0]
     need = operator_memory(kind, nodes, k)
     if need > MEMORY_SHARE * per_rank:
         others = [o for o in KINDS if o != kind]

@@ -7,25 +7,41 @@ only, and it is recorded with each result (``NormalResult.operator``,
 scripts/bench_normal_large.py; see docs/solvers.md):
 
 - **operator**: ``"fft-periodic"`` for a surface declared periodic whose
-  footprint is the whole grid (one period of a periodic interface), else
-  ``"fft"``. The explicit ``"dense"`` matrix was never more than ~10 %
-  faster (17² to 65², where the FFT operator also builds explicit contact-set
-  blocks) and 11 times slower at 129² (a 12-load sweep, the active set,
-  76 s against 6.8 s); above that it does not fit in memory. It remains the
-  reference operator, on request.
-- **method**: the bound-constrained ``"cg"``. With the rotation fixed it was
-  4 to 6 times faster than the active set (``"ksp"``) from 65² up; with the
-  rotation free 1.3 to 2 times; at 17² and 33² with free rotation the active
-  set was faster by 0.1 to 0.3 s per 12-load task, which does not justify a
-  second default. ``"gauss-seidel"`` (the paper's) is a reference only.
-  The stability map (scripts/bench_stability.py) found no region where the
-  CG fails and another method converges.
+  footprint is the whole grid (one period of a periodic interface); the
+  explicit ``"dense"`` matrix up to :data:`DENSE_NODES` footprint nodes
+  (65²), where it was 20–25 % faster than the FFT operator with the CG
+  (a 12-load task on 65²: 0.75 s against 0.94 s with the rotation free,
+  0.16 s against 0.20 s fixed) and costs at most 143 MB; ``"fft"`` above
+  (at 129² the dense operator was 1.5 to 6 times slower and it does not fit
+  in memory beyond ~192²).
+- **method**: the active set (``"ksp"``) up to :data:`ACTIVE_SET_NODES`
+  footprint nodes (33²), where with the rotation free, as an ensemble's
+  tasks are, it was twice as fast as the CG (0.073 s against 0.153 s per
+  12-load task at 33²); the bound-constrained ``"cg"`` above (4 to 6 times
+  faster than the active set from 129² with the rotation fixed, 1.5 to 2
+  with it free), and always on ``"fft-periodic"``. ``"gauss-seidel"`` (the
+  paper's) is a reference only. The stability map
+  (scripts/bench_stability.py) found no case, 64² to 1024², where the CG
+  or the active set fails.
 """
 from __future__ import annotations
 
 from ..errors import InputError
 
 OPERATOR_KINDS = ("dense", "fft", "fft-periodic")
+#: Footprint nodes up to which ``operator="auto"`` takes the explicit matrix.
+DENSE_NODES = 65 * 65
+#: Footprint nodes up to which ``method="auto"`` takes the active set.
+ACTIVE_SET_NODES = 33 * 33
+
+
+def auto_operator(nodes: int, periodic: bool) -> tuple[str, str]:
+    """(operator kind, why) that ``"auto"`` picks for ``nodes`` footprint nodes."""
+    if periodic:
+        return "fft-periodic", "auto: the surface is declared periodic and fills its grid"
+    if nodes <= DENSE_NODES:
+        return "dense", f"auto: the explicit matrix (the cheapest measured up to {DENSE_NODES} nodes)"
+    return "fft", f"auto: the matrix-free FFT operator (the cheapest measured above {DENSE_NODES} nodes)"
 
 
 def choose_operator(topography, operator: str = "auto") -> tuple[str, str]:
@@ -35,17 +51,20 @@ def choose_operator(topography, operator: str = "auto") -> tuple[str, str]:
             raise InputError("operator", f"must be 'auto' or one of {', '.join(OPERATOR_KINDS)}, got {operator!r}")
         return operator, "given"
     periodic = bool(topography.metadata.get("periodic", False)) and bool(topography.footprint.all())
-    if periodic:
-        return "fft-periodic", "auto: the surface is declared periodic and fills its grid"
-    return "fft", "auto: the matrix-free FFT operator (the cheapest at every grid measured)"
+    return auto_operator(int(topography.footprint.sum()), periodic)
 
 
-def choose_method(operator_kind: str, method: str = "auto") -> tuple[str, str]:
-    """(method, why) for ``method`` (``"auto"`` or a method, kept as given) on ``operator_kind``."""
+def choose_method(operator_kind: str, method: str = "auto", nodes: int | None = None) -> tuple[str, str]:
+    """(method, why) for ``method`` (``"auto"`` or a method, kept as given) on ``operator_kind``
+    over ``nodes`` footprint nodes (None: a large problem)."""
     from .solver import METHODS
 
     if method != "auto":
         if method not in METHODS:
             raise InputError("method", f"must be 'auto' or one of {', '.join(METHODS)}, got {method!r}")
         return method, "given"
-    return "cg", "auto: bound-constrained CG (the fastest method measured, and the only one for 'fft-periodic')"
+    if operator_kind != "fft-periodic" and nodes is not None and nodes <= ACTIVE_SET_NODES:
+        return "ksp", f"auto: the active set (the fastest measured up to {ACTIVE_SET_NODES} nodes)"
+    return "cg", ("auto: bound-constrained CG (the only method for 'fft-periodic')" if operator_kind ==
+                  "fft-periodic" else f"auto: bound-constrained CG (the fastest measured above "
+                                      f"{ACTIVE_SET_NODES} nodes)")

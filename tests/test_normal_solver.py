@@ -7,7 +7,7 @@ from mpi4py import MPI
 
 from roughcontact.errors import ConvergenceError, InputError
 from roughcontact.materials import Interface, Material
-from roughcontact.normal import ActiveSetSettings, ActiveSetSolver, NormalProblem, solve_closures
+from roughcontact.normal import ActiveSetSettings, ActiveSetSolver, NormalProblem, make_solver, solve_closures
 from roughcontact.surfaces import Topography, midpoint_surface
 
 ROCK = Interface(Material(20e9, 0.2), Material(20e9, 0.2))
@@ -239,6 +239,27 @@ def test_solver_needs_only_a_petsc_mat(comm, method):
     reference.destroy()
     np.testing.assert_array_equal(res.contact, dense.contact)
     np.testing.assert_allclose(res.force, dense.force, rtol=0, atol=1e-9 * np.abs(dense.force).max())
+
+
+def test_auto_method_on_a_user_mat_above_the_active_set_size(comm):
+    """A user's Mat over more than 33² nodes: ``auto`` cannot take the CG (its Fourier
+    preconditioner needs the kernel) and falls back to the active set, which reproduces
+    the built-in operator's solution to the solver tolerance (1e-8 of the largest force)."""
+    topo = rough(levels=6)                       # 65² = 4225 nodes
+    closure = closure_for_fraction(topo, 0.1)
+    reference = NormalProblem(topo, ROCK, comm, operator="dense")
+    with make_solver(reference, "ksp") as solver:
+        expected = solver.solve_closure(closure)
+    user = reference.operator.convert("aij")
+    problem = NormalProblem(topo, ROCK, comm, operator=user)
+    with make_solver(problem) as solver:
+        res = solver.solve_closure(closure)
+    problem.destroy()
+    user.destroy()
+    reference.destroy()
+    assert res.method == "ksp"
+    np.testing.assert_array_equal(res.contact, expected.contact)
+    np.testing.assert_allclose(res.force, expected.force, rtol=0, atol=1e-8 * np.abs(expected.force).max())
 
 
 @pytest.mark.parametrize("seed", range(8))

@@ -54,17 +54,19 @@ def choose_operator(topography, operator: str = "auto") -> tuple[str, str]:
     return auto_operator(int(topography.footprint.sum()), periodic)
 
 
-def choose_method(operator_kind: str, method: str = "auto", nodes: int | None = None) -> tuple[str, str]:
+def choose_method(operator_kind: str, nodes: int, method: str = "auto") -> tuple[str, str]:
     """(method, why) for ``method`` (``"auto"`` or a method, kept as given) on ``operator_kind``
-    over ``nodes`` footprint nodes (None: a large problem)."""
+    over ``nodes`` footprint nodes."""
     from .solver import METHODS
 
     if method != "auto":
         if method not in METHODS:
             raise InputError("method", f"must be 'auto' or one of {', '.join(METHODS)}, got {method!r}")
         return method, "given"
-    if operator_kind != "fft-periodic" and nodes is not None and nodes <= ACTIVE_SET_NODES:
+    if operator_kind.startswith("user"):
+        return "ksp", "auto: the active set (the CG's Fourier preconditioner needs a kernel, not a user's Mat)"
+    if operator_kind == "fft-periodic":
+        return "cg", "auto: bound-constrained CG (the only method for 'fft-periodic')"
+    if nodes <= ACTIVE_SET_NODES:
         return "ksp", f"auto: the active set (the fastest measured up to {ACTIVE_SET_NODES} nodes)"
-    return "cg", ("auto: bound-constrained CG (the only method for 'fft-periodic')" if operator_kind ==
-                  "fft-periodic" else f"auto: bound-constrained CG (the fastest measured above "
-                                      f"{ACTIVE_SET_NODES} nodes)")
+    return "cg", f"auto: bound-constrained CG (the fastest measured above {ACTIVE_SET_NODES} nodes)"

@@ -188,7 +188,8 @@ class ConstrainedCGSolver(NormalSolver):
         since_refresh = 0
         since_restart, changed_since = 0, False
         for iteration in range(1, settings.max_iterations + 1):
-            contact = np.flatnonzero(forces > 0.0)
+            in_contact = forces > 0.0
+            contact = np.flatnonzero(in_contact)
             gap = displacement - w
             approach = _mean(pb, gap[contact]) if load is not None else 0.0
             gap -= approach                            # the deformed gap, zero on S at the solution
@@ -206,7 +207,7 @@ class ConstrainedCGSolver(NormalSolver):
                 continue
             # masks, not sorted-set operations: union1d's sort cost more than the FFT products at 512²
             last, last_mask = working, free_mask
-            free_mask = (forces > 0.0) | (gap < 0.0)
+            free_mask = in_contact | (gap < 0.0)
             working = np.flatnonzero(free_mask)
             counts = pb.allsum(np.array([np.count_nonzero(free_mask != last_mask), working.size]))
             changed_since = changed_since or counts[0] > 0
@@ -287,7 +288,7 @@ class ConstrainedCGSolver(NormalSolver):
             start = self.nested.start(rigid, free, loads)
             if start is not None and pb.allsum(start[0].sum()) > 0.0:
                 self.coarse_iterations = self.nested.iterations
-                return start[0], start[2]
+                return start
         rigid = rigid.copy()
         if free:
             rigid[free] = 0.0

@@ -16,6 +16,8 @@ load point, and the coarse approach is translated back.
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from ..errors import ConvergenceError, InputError
@@ -51,12 +53,13 @@ class NestedStart:
 
     @staticmethod
     def applies(problem: NormalProblem) -> bool:
-        """Whether the grid is fine enough for a coarse level to pay off."""
-        return problem.size > 4 * COARSEST
+        """Whether the grid is fine enough for a coarse level to pay off, and its operator one that
+        can be rebuilt on a coarser grid (not a user's Mat)."""
+        return problem.size > 4 * COARSEST and problem.flexibility.kernel is not None
 
     def start(self, rigid: np.ndarray, free: list[int], loads: np.ndarray):
-        """(forces, contact set, rigid motion) on this rank's fine nodes, or None when the
-        coarse level cannot give a start (a load point outside its footprint, a failed solve)."""
+        """(forces, rigid motion) on this rank's fine nodes, or None when the coarse level cannot
+        give a start (a load point outside its footprint, a failed solve: warned about)."""
         fine = self.problem
         if self.solver is None:
             coarse_topography = coarsen(fine.topography, 2, "decimate")
@@ -76,13 +79,15 @@ class NestedStart:
                 load = loads[0]
                 moments = (-loads[1] + load * shift[1], -loads[2] + load * shift[0])
                 result = self.solver.solve_load(load, moments=moments)
-        except (ConvergenceError, InputError):
+        except (ConvergenceError, InputError) as exc:
+            warnings.warn(f"the coarse-grid start failed ({exc}); the solve starts from independent "
+                          "punches instead", RuntimeWarning, stacklevel=3)
             return None
         self.iterations = result.linear_iterations
         motion = np.array([result.closure - result.rotation[0] * shift[1] - result.rotation[1] * shift[0]
                            - offset, *result.rotation])
         forces = prolong(result, fine)
-        return forces, forces > 0.0, motion
+        return forces, motion
 
     def destroy(self) -> None:
         if self.solver is not None:

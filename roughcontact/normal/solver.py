@@ -205,7 +205,7 @@ def make_solver(problem: NormalProblem, method: str = "auto", **options) -> Norm
     from .choice import choose_method
 
     problem._check_alive()
-    name, reason = choose_method(problem.operator_kind, method, problem.size)
+    name, reason = choose_method(problem.operator_kind, problem.size, method)
     if name in ("ksp", "gauss-seidel"):
         from .active_set import ActiveSetSolver
 

@@ -148,6 +148,21 @@ def test_operator_too_large_for_memory_is_refused_before_any_solve(comm, shared_
     assert not (shared_dir / "tiny.tasks").exists()     # not claimed: a corrected study may use the name
 
 
+def test_memory_check_uses_the_ranks_per_task_of_the_run(comm, shared_dir):
+    """--ranks-per-task overrides [farm] ranks_per_task for the memory check too: the refusal
+    names the k the run would use, not the study's; 0 is refused as the study's 0 would be."""
+    size = comm.Get_size()
+    study = load_study({**TINY, "surface": {**TINY["surface"], "levels": 13}, "farm": {"ranks_per_task": 8}})
+    with pytest.raises(InputError, match="coarser grid") as info:
+        run_study(study, comm, shared_dir, log=lambda *a: None, ranks_per_task=size)
+    assert f"with ranks_per_task = {size}," in str(info.value)
+    assert f"ranks_per_task = {2 * size}, needing" in str(info.value)
+    with pytest.raises(InputError) as info:
+        run_study(load_study(TINY), comm, shared_dir, log=lambda *a: None, ranks_per_task=0)
+    assert info.value.parameter == "farm.ranks_per_task" and "\n" not in str(info.value)
+    assert not (shared_dir / "tiny.tasks").exists()
+
+
 def test_output_that_cannot_be_written_is_refused_first(comm, shared_dir):
     if comm.Get_rank() == 0:
         (shared_dir / "a-file").write_text("not a directory")

@@ -73,12 +73,13 @@ def task_size(task) -> tuple[int, int]:
         raise InputError("surface.footprint_diameter", str(exc).split(": ", 1)[1]) from None
 
 
-def check_operator_memory(study, nodes: int, comm) -> None:
+def check_operator_memory(study, nodes: int, comm, k: int) -> None:
     """Refuse a study whose largest operator does not fit in the memory of a rank.
 
     Each rank of a node may hold its share of one operator
-    (:func:`roughcontact.operators.operator_memory` over ``ranks_per_task``
-    ranks); the node's available memory is divided among its ranks.
+    (:func:`roughcontact.operators.operator_memory` over the ``k`` ranks of a
+    task, the run's ranks per task); the node's available memory is divided
+    among its ranks.
     """
     from mpi4py import MPI
 
@@ -90,7 +91,7 @@ def check_operator_memory(study, nodes: int, comm) -> None:
     local = node.Get_size()
     node.Free()
     per_rank = comm.allreduce(available_memory() / local, op=MPI.MIN)
-    kind, k = study.normal.operator, study.ranks_per_task
+    kind = study.normal.operator
     if kind == "auto":                  # what auto picks (the periodic FFT needs what the FFT needs)
         kind = auto_operator(nodes, periodic=False)[0]
     need = operator_memory(kind, nodes, k)

@@ -61,7 +61,7 @@ def run_study(study: Study, comm, output: str | Path, log: Callable = print, qui
     t0 = time.perf_counter()
     rank = comm.Get_rank()
     say = log if rank == 0 else (lambda *a, **k: None)
-    k = ranks_per_task or study.ranks_per_task
+    k = study.ranks_per_task if ranks_per_task is None else ranks_per_task
     tasks = study.tasks()
     store = TaskStore(output, study.name)
     finished = on_root(comm, _resume, store, study, retry_failed)
@@ -69,7 +69,7 @@ def run_study(study: Study, comm, output: str | Path, log: Callable = print, qui
     count = group_count(comm.Get_size(), k)      # refuses a k that does not divide the ranks
     grid, footprint = on_root(comm, _sizes, pending)
     if pending:
-        check_operator_memory(study, footprint, comm)
+        check_operator_memory(study, footprint, comm, k)
         on_root(comm, lambda: pending[0].topography() and None)   # bad surface arguments, before any solve
     crowded = oversubscription(comm)
     if crowded and rank == 0:

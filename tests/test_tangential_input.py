@@ -94,6 +94,31 @@ def test_normal_state_must_belong_to_the_problem(comm, sphere):
         CattaneoSolver(problem, "not a result", 0.3, method="ksp")
 
 
+def test_auto_corrective_solver_reads_the_cattaneo_prefix(sphere):
+    """method="auto" is resolved before the prefix is chosen: on a small grid it picks the active
+    set, which then reads PETSc options under cattaneo_ (not normal_) and takes the ksp options."""
+    problem, normal = sphere
+    with CattaneoSolver(problem, normal, 0.3, rtol=1e-10, options={"ksp_max_it": 5000}) as solver:
+        assert solver.solver.method == "ksp"
+        assert solver.solver.method_reason.startswith("auto")
+        assert solver.solver.inner.ksp.getOptionsPrefix() == "cattaneo_"
+        state = solver.solve(0.1 * normal.load)
+    assert "method ksp (auto" in state.corrective.choice
+    with CattaneoSolver(problem, normal, 0.3, method="ksp", prefix="mine_") as solver:
+        assert solver.solver.inner.ksp.getOptionsPrefix() == "mine_"
+
+
+def test_options_the_corrective_solver_does_not_take(sphere):
+    """An option the resolved method does not take is an InputError naming it, not a TypeError."""
+    problem, normal = sphere
+    with raises("rtol", match="'cg'.*does not take rtol, prefix"):
+        CattaneoSolver(problem, normal, 0.3, method="cg", rtol=1e-9, prefix="x_")
+    with raises("nested", match="'ksp' \\(auto"):
+        CattaneoSolver(problem, normal, 0.3, nested=False)
+    with raises("nested"):
+        tangential_sweep(problem, normal, 0.3, steps=2, nested=False)
+
+
 def test_sweep_and_cycle_arguments(sphere):
     problem, normal = sphere
     with raises("steps"):

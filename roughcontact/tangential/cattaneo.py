@@ -27,6 +27,7 @@ J.R. Barber, M. Ciavarella, Int. J. Solids Struct. 37 (2000) 29–43
 """
 from __future__ import annotations
 
+import inspect
 import math
 import time
 import warnings
@@ -35,6 +36,7 @@ import numpy as np
 
 from ..collective import Collective
 from ..errors import ConvergenceError, InputError, require_finite
+from ..normal.choice import choose_method
 from ..normal.solver import make_solver
 from ..normal.problem import NormalProblem
 from ..normal.result import NormalResult
@@ -140,11 +142,14 @@ class CattaneoSolver(Collective):
     direction
         In-plane direction of Q, any non-zero vector (normalised here).
     method
-        The corrective solver's method (``"auto"``, ``"ksp"``, ``"gauss-seidel"``, ``"cg"``).
+        The corrective solver's method (``"auto"``, ``"ksp"``, ``"gauss-seidel"``, ``"cg"``);
+        ``"auto"`` is resolved here (:func:`~roughcontact.normal.choice.choose_method`).
     **solver_options
-        Its options (``settings``, ``rtol``, ``options``, ``prefix``); the
-        active-set methods read PETSc options under the prefix ``cattaneo_``
-        by default (``-cattaneo_ksp_monitor``).
+        Its options: ``settings``, ``rtol``, ``options``, ``prefix`` for the
+        active set, ``settings``, ``nested`` for the CG; one the resolved
+        method does not take is an :class:`InputError`. The active-set
+        methods, whether given or picked by ``"auto"``, read PETSc options
+        under the prefix ``cattaneo_`` by default (``-cattaneo_ksp_monitor``).
 
     Notes
     -----
@@ -160,9 +165,12 @@ class CattaneoSolver(Collective):
         self.problem = problem
         self.normal = normal
         self.model = cattaneo_model(problem.interface)
-        if method in ("ksp", "gauss-seidel"):
+        name, reason = choose_method(problem.operator_kind, problem.size, method)
+        if name in ACTIVE_SET_METHODS:
             solver_options.setdefault("prefix", "cattaneo_")
-        self.solver = make_solver(problem, method, **solver_options)
+        check_solver_options(name, reason, solver_options)
+        self.solver = make_solver(problem, name, **solver_options)
+        self.solver.method_reason = reason     # "auto: ...", not the "given" of the resolved name
         # warm start of the first corrective solve: the actual contact set and motion (Eq. 23
         # receding: the stick set is a subset of it)
         self.solver.warm_start(normal)
@@ -283,6 +291,33 @@ def _centroid(traction: np.ndarray, zone: np.ndarray, spacing: float) -> tuple[f
     i, j = np.nonzero(zone)
     weights = traction[zone]
     return (float(weights @ i) * spacing / total, float(weights @ j) * spacing / total)
+
+
+#: The methods of :class:`~roughcontact.normal.ActiveSetSolver` (they read PETSc options).
+ACTIVE_SET_METHODS = ("ksp", "gauss-seidel")
+
+
+def solver_option_names(method: str) -> tuple[str, ...]:
+    """The keyword options the normal solver of ``method`` (a resolved name) takes."""
+    if method in ACTIVE_SET_METHODS:
+        from ..normal.active_set import ActiveSetSolver as cls
+    else:
+        from ..normal.constrained_cg import ConstrainedCGSolver as cls
+    return tuple(name for name in inspect.signature(cls.__init__).parameters
+                 if name not in ("self", "problem", "method"))
+
+
+def check_solver_options(method: str, reason: str, options: dict) -> None:
+    """:class:`InputError` naming the ``options`` that the solver of ``method`` does not take.
+
+    ``reason`` says why ``method`` was chosen (``"given"`` or what ``"auto"`` picked).
+    """
+    accepted = solver_option_names(method)
+    wrong = [name for name in options if name not in accepted]
+    if wrong:
+        raise InputError(wrong[0], f"the corrective solver is {method!r} ({reason}), which takes only "
+                                   f"{', '.join(accepted)}; it does not take {', '.join(wrong)}. "
+                                   "Pass `method` for the solver these options are meant for")
 
 
 def check_normal(problem: NormalProblem, normal) -> None:

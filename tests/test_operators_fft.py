@@ -131,9 +131,9 @@ def test_fourier_preconditioner_is_symmetric_positive_definite(comm):
     rng = np.random.default_rng(3)
     n = fft.layout.local_size
     active = rng.random(n) < 0.4
-    x, y = rng.standard_normal(n) * active, rng.standard_normal(n) * active
-    mx, my = fft.precondition(x, active), fft.precondition(y, active)
-    assert np.all(mx[~active] == 0.0)
+    nodes = np.flatnonzero(active)
+    x, y = rng.standard_normal(nodes.size), rng.standard_normal(nodes.size)
+    mx, my = fft.precondition_nodes(x, nodes), fft.precondition_nodes(y, nodes)
     xmy, ymx, xmx = (comm.allreduce(float(v)) for v in (x @ my, y @ mx, x @ mx))
     assert abs(xmy - ymx) <= 1e-12 * abs(xmx)
     assert xmx > 0.0

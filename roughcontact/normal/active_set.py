@@ -111,7 +111,6 @@ class ActiveSetSolver(NormalSolver):
         self.inner = _inner_solver(problem, method, rtol, options, prefix)
         # warm-start columns of the inner solves (full local length): p and the Hessian's
         self.guesses = np.zeros((problem.local_size, 4))
-        self._inner_set: np.ndarray | None = None
 
     @property
     def description(self) -> str:
@@ -139,6 +138,7 @@ class ActiveSetSolver(NormalSolver):
         pb, tol = self.problem, self.settings.tol
         n = pb.local_size
         w = pb.interpenetration(rigid)
+        w_scale = pb.interpenetration_scale(w)
         if self.active is not None:
             active = self.active.copy()
         else:
@@ -154,16 +154,15 @@ class ActiveSetSolver(NormalSolver):
                     self.active = active.copy()
                     return state
                 active = w > 0.0
-            self._restrict(active)
+            self.inner.set_active(active)
             pressure_s, its = self.inner.solve(w[active], self.guesses[active, 3])
             self.guesses[:, 3] = 0.0
             self.guesses[active, 3] = pressure_s
             linear_its += its
             pressure = np.zeros(n)
             pressure[active] = pressure_s
-            gap = self._gap(pressure, rigid, active)
+            gap = pb.displacement(pressure) - w             # H p − w (Eq. 7): zero on S, > 0 off S
             p_max = float(pb.allmax(pressure.max(initial=0.0)))
-            w_scale = self._w_scale(rigid)
             tension = active & (pressure < -tol * p_max)
             penetration = ~active & (gap < -tol * w_scale)
             residual = self._residual(pressure, gap, active, p_max, w_scale)
@@ -189,15 +188,6 @@ class ActiveSetSolver(NormalSolver):
             f"(last residual {history[-1]:.3e}, {int(n_changes[0])} nodes in tension, "
             f"{int(n_changes[1])} interpenetrating); raise ActiveSetSettings.max_outer")
 
-    def _restrict(self, active: np.ndarray) -> None:
-        """Point the inner solver at the set S, unless it already is (decided on all ranks,
-        since building H_SS is collective): Newton's evaluations and Hessians often
-        revisit the set of the previous solve."""
-        same = self._inner_set is not None and np.array_equal(self._inner_set, active)
-        if self.problem.allmax(0.0 if same else 1.0) > 0.0:
-            self.inner.set_active(active)
-            self._inner_set = active.copy()
-
     def _limit_growth(self, penetration, gap, active, n_penetrating) -> np.ndarray:
         """The interpenetrating nodes to add: all of them, unless they outnumber
         the current set, then the most interpenetrating ones, as many as the set
@@ -219,7 +209,7 @@ class ActiveSetSolver(NormalSolver):
         n_free = len(free)
         if pb.allsum(active.sum()) == 0:
             return np.zeros((n_free, n_free)), 0
-        self._restrict(active)
+        self.inner.set_active(active)
         cols = pb.columns[active][:, free]
         basis = np.empty_like(cols)
         its = 0
@@ -229,16 +219,6 @@ class ActiveSetSolver(NormalSolver):
             self.guesses[:, k] = 0.0
             self.guesses[active, k] = basis[:, j]
         return pb.allsum(cols.T @ basis), its
-
-    def _gap(self, pressure: np.ndarray, rigid: np.ndarray, active: np.ndarray) -> np.ndarray:
-        """Deformed gap g = H p − w (Eq. 7: zero on S, positive outside); p is zero off S."""
-        pb = self.problem
-        return pb.displacement(pressure) - pb.interpenetration(rigid)
-
-    def _w_scale(self, rigid) -> float:
-        w = self.problem.interpenetration(rigid)
-        scale = float(self.problem.allmax(np.abs(w).max(initial=0.0)))
-        return max(scale, self.problem.height_range) or 1.0
 
     def _residual(self, pressure, gap, active, p_max, w_scale) -> float:
         """max of relative tension, interpenetration and equation (gap on S) errors."""

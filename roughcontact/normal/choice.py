@@ -27,8 +27,8 @@ scripts/bench_normal_large.py; see docs/solvers.md):
 from __future__ import annotations
 
 from ..errors import InputError
+from ..operators.memory import KINDS
 
-OPERATOR_KINDS = ("dense", "fft", "fft-periodic")
 #: Footprint nodes up to which ``operator="auto"`` takes the explicit matrix.
 DENSE_NODES = 65 * 65
 #: Footprint nodes up to which ``method="auto"`` takes the active set.
@@ -47,8 +47,8 @@ def auto_operator(nodes: int, periodic: bool) -> tuple[str, str]:
 def choose_operator(topography, operator: str = "auto") -> tuple[str, str]:
     """(operator kind, why) for ``operator`` (``"auto"`` or a kind, kept as given)."""
     if operator != "auto":
-        if operator not in OPERATOR_KINDS:
-            raise InputError("operator", f"must be 'auto' or one of {', '.join(OPERATOR_KINDS)}, got {operator!r}")
+        if operator not in KINDS:
+            raise InputError("operator", f"must be 'auto' or one of {', '.join(KINDS)}, got {operator!r}")
         return operator, "given"
     periodic = bool(topography.metadata.get("periodic", False)) and bool(topography.footprint.all())
     return auto_operator(int(topography.footprint.sum()), periodic)

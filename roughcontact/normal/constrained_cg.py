@@ -175,7 +175,7 @@ class ConstrainedCGSolver(NormalSolver):
         rigid[free] = 0.0
         w = pb.interpenetration(rigid)                 # w_fixed: δz left out under load control
         load = loads[0] if free else None
-        w_scale = max(float(pb.allmax(np.abs(w).max(initial=0.0))), pb.height_range) or 1.0
+        w_scale = pb.interpenetration_scale(w)
         forces = forces.copy()
         if load is not None:
             forces *= _load_scale(pb, forces, load)

@@ -17,21 +17,22 @@ from scipy.linalg import solve_triangular
 
 from ..operators.dense import gather_dense
 from ..errors import ConvergenceError
+from .subsolver import ContactSetSubsolver
 
 
-class GaussSeidelSubsolver:
+class GaussSeidelSubsolver(ContactSetSubsolver):
     """Gauss–Seidel sweeps on the gathered dense H_SS."""
 
     name = "gauss-seidel"
 
     def __init__(self, flexibility, rtol: float = 1e-11, max_sweeps: int = 20000):
-        self.flexibility = flexibility
+        super().__init__(flexibility)
         self.comm = flexibility.comm
         self.rtol = rtol
         self.max_sweeps = max_sweeps
         self.description = f"gauss-seidel (rtol={rtol:g}, max_sweeps={max_sweeps})"
 
-    def set_active(self, active: np.ndarray) -> None:
+    def _build(self, active: np.ndarray) -> None:
         sub = self.flexibility.block(active, explicit=True)
         matrix = gather_dense(sub, self.comm)
         sub.destroy()

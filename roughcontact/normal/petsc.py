@@ -19,6 +19,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from ..errors import ConvergenceError
+from .subsolver import ContactSetSubsolver
 
 _REASONS = {getattr(PETSc.KSP.ConvergedReason, k): k
             for k in dir(PETSc.KSP.ConvergedReason) if k.isupper()}
@@ -88,15 +89,13 @@ class FourierPC:
 
     def __init__(self, flexibility):
         self.flexibility = flexibility
-        self.active: np.ndarray | None = None
-        self.values = np.zeros(flexibility.layout.local_size)
+        self.nodes: np.ndarray | None = None        # this rank's indices of S
 
     def apply(self, pc, x, y):
-        self.values[self.active] = x.getArray(readonly=True)
-        y.getArray()[:] = self.flexibility.precondition(self.values, self.active)[self.active]
+        y.getArray()[:] = self.flexibility.precondition_nodes(x.getArray(readonly=True), self.nodes)
 
 
-class KSPSubsolver:
+class KSPSubsolver(ContactSetSubsolver):
     """Solve H_SS x = b on the active set with a PETSc KSP.
 
     Parameters
@@ -116,7 +115,7 @@ class KSPSubsolver:
 
     def __init__(self, flexibility, prefix: str = "normal_",
                  rtol: float = 1e-11, max_it: int = 10000, options: dict | None = None):
-        self.flexibility = flexibility
+        super().__init__(flexibility)
         self.scope = OptionsScope(prefix, options)
         self.ksp = PETSc.KSP().create(flexibility.comm)
         self.ksp.setOptionsPrefix(prefix)
@@ -137,15 +136,14 @@ class KSPSubsolver:
         return (f"{self.ksp.getType()}+{self.ksp.getPC().getType()} "
                 f"(rtol={rtol:g}, max_it={max_it})")
 
-    def set_active(self, active: np.ndarray) -> None:
-        """Restrict to the active local nodes (boolean mask over owned rows)."""
+    def _build(self, active: np.ndarray) -> None:
         self._free_sub()
         self.sub = self.flexibility.block(active)
         self.ksp.setOperators(self.sub)
         if not self.user_pc:
             pc = self.ksp.getPC()
             if self.sub.getType() == PETSc.Mat.Type.PYTHON:
-                self.fourier.active = active.copy()
+                self.fourier.nodes = np.flatnonzero(active)
                 pc.setType(PETSc.PC.Type.PYTHON)
                 pc.setPythonContext(self.fourier)
             else:

@@ -114,9 +114,10 @@ class NormalProblem(Collective):
         """Maximum over ranks."""
         return self._allreduce(local, "MAX")
 
-    def allmin(self, local) -> np.ndarray:
-        """Minimum over ranks."""
-        return self._allreduce(local, "MIN")
+    def interpenetration_scale(self, w: np.ndarray) -> float:
+        """The scale the gap residual is measured against: the largest |w| over all ranks, at
+        least the height range of the footprint (1 for a flat, untouched one)."""
+        return max(float(self.allmax(np.abs(w).max(initial=0.0))), self.height_range) or 1.0
 
     def _allreduce(self, local, op: str) -> np.ndarray:
         from mpi4py import MPI

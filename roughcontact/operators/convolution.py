@@ -34,10 +34,6 @@ import os
 import numpy as np
 import scipy.fft as sfft
 
-#: bytes per grid node per rank-share held by a convolution (symbol + transform buffers),
-#: measured for the non-periodic layout; see :func:`convolution_bytes`
-_COMPLEX, _REAL = 16, 8
-
 
 def split(n: int, parts: int) -> list[tuple[int, int]]:
     """``n`` items in ``parts`` contiguous blocks, the first ``n % parts`` one longer."""
@@ -236,22 +232,3 @@ class SlabConvolution:
         send_displ = np.concatenate([[0], np.cumsum(send_counts)[:-1]]).astype(int)
         recv_displ = np.concatenate([[0], np.cumsum(recv_counts)[:-1]]).astype(int)
         self.comm.Alltoallv([send, (send_counts, send_displ)], [recv, (recv_counts, recv_displ)])
-
-
-def convolution_bytes(shape: tuple[int, int], ranks: int, periodic: bool = False) -> int:
-    """Peak bytes of a :class:`SlabConvolution` product on the busiest rank.
-
-    The symbol (Lx × columns/ranks reals) plus the transient transforms of one
-    product: the row spectra (rows × columns complex), their transpose
-    (nx × columns/ranks), the padded column transform (Lx × columns/ranks,
-    twice: input and output of the product with the symbol) and the real
-    output rows.
-    """
-    nx, ny = shape
-    lx, ly = padded_lengths(shape, periodic)
-    columns = ly // 2 + 1
-    my_rows = -(-nx // ranks)
-    my_columns = -(-columns // ranks)
-    symbol = lx * my_columns * _REAL
-    transient = (my_rows * columns + nx * my_columns + 2 * lx * my_columns) * _COMPLEX + my_rows * ly * _REAL
-    return int(symbol + transient)

@@ -30,8 +30,7 @@ from ..errors import InputError
 from .convolution import SlabConvolution
 from .kernel import kernel_block, offset_table, punch_kernel
 from .layout import NodeLayout
-
-KINDS = ("dense", "fft", "fft-periodic")
+from .memory import KINDS
 
 #: an explicit H_SS is used while |S|² ≤ EXPLICIT_RATIO · Lx · Ly and it fits in EXPLICIT_BYTES
 #: per rank: its product then costs about what an FFT product and the preconditioner save in
@@ -131,13 +130,9 @@ class Flexibility:
         slab = self.layout.to_slab(values, out=self._slab)
         return self.layout.from_slab(self.convolution.apply(slab))
 
-    def precondition(self, values: np.ndarray, active: np.ndarray) -> np.ndarray:
-        """z = [C⁻¹ (values on S, 0 elsewhere)]_S, 0 off S: the Fourier preconditioner of H_SS
-        (S given as a mask over this rank's nodes)."""
-        return self.preconditioner.apply(values, active)
-
     def precondition_nodes(self, values: np.ndarray, nodes: np.ndarray) -> np.ndarray:
-        """The same on S given by this rank's node indices, ``values`` and result on S only."""
+        """z = [C⁻¹ (values on S, 0 elsewhere)]_S: the Fourier preconditioner of H_SS, S given by
+        this rank's node indices, ``values`` and result on S only."""
         return self.preconditioner.apply_nodes(values, nodes)
 
     @property
@@ -155,8 +150,6 @@ class Flexibility:
     # ---------------------------------------------------------------- blocks
     def explicit_fits(self, count: int) -> bool:
         """Whether an explicit H_SS of ``count`` nodes is cheaper than FFT products and fits."""
-        if self.kernel is None:
-            return True
         lx, ly = self.convolution.lengths
         per_rank = 8.0 * count * count / self.comm.Get_size()
         return count * count <= EXPLICIT_RATIO * lx * ly and per_rank <= EXPLICIT_BYTES
@@ -167,13 +160,13 @@ class Flexibility:
         ``explicit`` forces an explicit (True) or matrix-free (False) block;
         by default the cheaper one (:meth:`explicit_fits`).
         """
-        count = int(self.comm.allreduce(int(active.sum())))
         if self.kind == "dense" or self.kernel is None:
             rows = (np.flatnonzero(active) + self.layout.start).astype(PETSc.IntType)
             index_set = PETSc.IS().createGeneral(rows, comm=self.comm)
             sub = self.mat.createSubMatrix(index_set, index_set)
             index_set.destroy()
             return sub
+        count = int(self.comm.allreduce(int(active.sum())))
         if explicit is None:
             explicit = self.explicit_fits(count)
         if explicit:

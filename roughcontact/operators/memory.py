@@ -27,7 +27,8 @@ import math
 
 from ..errors import InputError
 
-#: operators whose memory is estimated here
+#: the operators built from a topography (one list for the package; numpy only, so it can be
+#: read before PETSc starts)
 KINDS = ("dense", "fft", "fft-periodic")
 #: bytes per node held on every rank
 REPLICATED = 110

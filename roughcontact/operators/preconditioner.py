@@ -56,15 +56,7 @@ class FourierPreconditioner:
                                    f"the wrapped kernel's symbol reaches {smallest:.3e} <= 0; the Fourier "
                                    "preconditioner is not positive definite on this grid: use -normal_pc_type none")
         self.inverse_symbol = 1.0 / self.convolution.symbol
-        self._values = np.zeros(self.layout.local_size)
         self._slab = np.zeros((self.layout.rows[1] - self.layout.rows[0], shape[1]))
-
-    def apply(self, values: np.ndarray, active: np.ndarray) -> np.ndarray:
-        """R_S C⁻¹ R_Sᵀ ``values`` (both over this rank's nodes; zero off S, given as a mask)."""
-        nodes = np.flatnonzero(active)
-        out = np.zeros(active.size)
-        out[nodes] = self.apply_nodes(values[nodes], nodes)
-        return out
 
     def apply_nodes(self, values: np.ndarray, nodes: np.ndarray) -> np.ndarray:
         """R_S C⁻¹ R_Sᵀ on S given by this rank's node indices; ``values`` and the result on S."""

@@ -98,6 +98,29 @@ def test_farm_equals_tasks_solved_one_by_one(comm, shared_dir):
     assert tangential["limit"].sel(normal_load=10.0, Q_over_fP=1.0).all()
 
 
+def test_warnings_of_a_task_reach_the_combined_dataset(comm, shared_dir, monkeypatch):
+    """ν = 0.2 bodies: a tangential sweep is the uncoupled approximation and warns (once per
+    process). The warning is in the warnings variable of the task that raised it, and the
+    closing line counts the tasks with warnings."""
+    from roughcontact.tangential import model
+
+    monkeypatch.setattr(model, "_warned", set())
+    lines = []
+    study = load_study(tiny(name="warning", axes={"seeds": 2},
+                            surface={"generator": "midpoint", "levels": 3, "spacing": 1e-4, "rms_height": 1e-5,
+                                     "fractal_dimension": 2.3},
+                            materials={"body1": {"E": 20e9, "nu": 0.2}, "body2": {"E": 20e9, "nu": 0.2}},
+                            normal={"loads": [5.0]}, tangential={"friction": 0.5, "steps": 2}))
+    summary = run_study(study, comm, shared_dir, log=lines.append, quiet=True)
+    assert summary.exit_code == 0
+    texts = [str(t) for t in open_group(summary.paths["netcdf"])["warnings"].values]
+    warned = [t for t in texts if t]
+    assert warned and all(t.startswith("UncoupledApproximationWarning: ") for t in warned), texts
+    assert summary.warned == len(warned)
+    if comm.Get_rank() == 0:
+        assert f"0 failed, {len(warned)} with warnings (see the variable warnings)" in lines[-1]
+
+
 def test_one_or_two_ranks_per_task_agree(comm, shared_dir):
     """Two groups of one rank and one group of two ranks solve the same tasks: the operator
     rows are split differently, so sums are rounded differently; each state meets its load to

@@ -120,6 +120,8 @@ def _task_scalars(outcome: TaskOutcome) -> dict:
            for name, value in stats.items()}
     out["status"] = ((), np.int8(FAILED if outcome.error else COMPLETED), STATUS_ATTRS)
     out["message"] = ((), outcome.error or "", {"long_name": "why the task failed (empty if it completed)"})
+    out["warnings"] = ((), "\n".join(outcome.warnings),
+                       {"long_name": "warnings raised while solving the task, one a line (empty if none)"})
     out["task_elapsed"] = ((), outcome.elapsed, {"units": "s", "long_name": "wall time of the task"})
     return out
 

@@ -35,6 +35,7 @@ class RunSummary:
     resumed: int
     solved: int
     failed: dict[int, str] = field(default_factory=dict)
+    warned: int = 0
     paths: dict[str, Path] = field(default_factory=dict)
     elapsed: float = 0.0
     solved_here: int = 0
@@ -97,7 +98,7 @@ def run_study(study: Study, comm, output: str | Path, log: Callable = print, qui
     paths = on_root(comm, _finish, study, store, attrs, tasks)
     solved = comm.bcast(progress.solved, root=0)
     summary = RunSummary(name=study.name, tasks=len(tasks), resumed=len(finished), solved=solved,
-                         failed=paths.pop("failed"), paths=paths, elapsed=time.perf_counter() - t0,
+                         failed=paths.pop("failed"), warned=paths.pop("warned"), paths=paths, elapsed=time.perf_counter() - t0,
                          solved_here=solved_here[0])
     say(_closing(summary, progress.written))
     return summary
@@ -125,10 +126,12 @@ def _finish(study: Study, store: TaskStore, attrs: dict, tasks: list) -> dict:
     failed = {t.index: str(root["message"].values[t.position]) for t in tasks
               if int(root["status"].values[t.position]) != 0}
     attrs["tasks_failed"] = len(failed)
+    # task files of earlier versions have no warnings variable
+    warned = sum(1 for t in tasks if "warnings" in root and str(root["warnings"].values[t.position]))
     # the operator and method the first task resolved (each task file records its own)
     kept = ("fields_note", "operator", "method", "solver", "solver_choice")
     root.attrs = {**attrs, **{k: v for k, v in root.attrs.items() if k.startswith(kept)}}
-    paths = {"netcdf": write_combined(groups, store.combined), "failed": failed}
+    paths = {"netcdf": write_combined(groups, store.combined), "failed": failed, "warned": warned}
     if "contact_fraction" in root and root["contact_fraction"].notnull().any():
         shown = ensemble_statistics(root) if root.sizes.get("seed", 1) > 1 else root
         grid = f", {root.sizes['x']} × {root.sizes['y']} nodes" if "x" in root.sizes else ""
@@ -170,7 +173,8 @@ def _petsc_options() -> str:
 
 def _closing(summary: RunSummary, written: int) -> str:
     lines = [f"{summary.name}: {summary.tasks} task(s): {summary.solved} solved now, {summary.resumed} "
-             f"from earlier runs, {len(summary.failed)} failed; {summary.elapsed:.1f} s"
+             f"from earlier runs, {len(summary.failed)} failed, {summary.warned} with warnings"
+             + (" (see the variable warnings)" if summary.warned else "") + f"; {summary.elapsed:.1f} s"
              + (f", {written / 1e6:.1f} MB of task files" if written else "")]
     reasons: dict[str, list[int]] = {}
     for index, message in sorted(summary.failed.items()):

@@ -1,4 +1,5 @@
-"""Shared by the benchmark scripts: run a worker under mpiexec for each rank count."""
+"""Shared by the benchmark scripts: run a worker under mpiexec for each rank count, the large-grid
+scene's surface, and writing the JSON of results."""
 from __future__ import annotations
 
 import argparse
@@ -63,3 +64,17 @@ def save_json(data, path, extra: str = "") -> Path:
     path.write_text(json.dumps(data, indent=1))
     print(f"wrote {path}{extra}")
     return path
+
+
+def scene_surface(n: int, seed: int = 1, cutoff: float | None = None, **shape):
+    """The large-grid scene on an n × n grid of the unit square: Fourier filtered, Hurst 0.8
+    (or ``fractal_dimension=`` in ``shape``), unit rms slope, roll-off at the box size, short
+    cut-off ``cutoff`` (default 8 s), non-periodic."""
+    from roughcontact.surfaces import fourier_surface
+
+    s = 1.0 / n
+    if "fractal_dimension" not in shape:
+        shape["hurst"] = 0.8
+    return fourier_surface(n, s, rms_slope=1.0, rolloff_wavelength=1.0,
+                           short_cutoff_wavelength=8 * s if cutoff is None else cutoff,
+                           periodic=False, seed=seed, **shape)

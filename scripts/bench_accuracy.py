@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _ranks import save_json  # noqa: E402
+from _ranks import save_json, scene_surface  # noqa: E402
 
 TOLERANCES = (1e-4, 1e-6, 1e-8)
 DENSE_LARGEST = 128 * 128
@@ -91,12 +91,10 @@ def cell_average(field: np.ndarray, factor: int) -> np.ndarray:
 
 
 def rough_scene(args, rows: list[dict]) -> None:
-    from roughcontact.surfaces import coarsen, fourier_surface
+    from roughcontact.surfaces import coarsen
 
     nf = args.reference
-    s = 1.0 / nf
-    fine = fourier_surface(nf, s, hurst=0.8, rms_slope=1.0, rolloff_wavelength=1.0,
-                           short_cutoff_wavelength=1.0 / 32, periodic=False, seed=4)
+    fine = scene_surface(nf, seed=4, cutoff=1.0 / 32)
     top = float(fine.heights.max())
     # the reference approach: 0.01 E* of mean pressure on the reference grid
     from mpi4py import MPI

@@ -27,17 +27,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _ranks import save_json  # noqa: E402
+from _ranks import save_json, scene_surface  # noqa: E402
 
 TAO_TYPES = ("bncg", "blmvm", "bqnls", "gpcg", "tron", "bqnkls")
-
-
-def surface(n: int):
-    from roughcontact.surfaces import fourier_surface
-
-    s = 1.0 / n
-    return fourier_surface(n, s, hurst=0.8, rms_slope=1.0, rolloff_wavelength=1.0,
-                           short_cutoff_wavelength=8 * s, periodic=False, seed=1)
 
 
 class Counter:
@@ -138,7 +130,7 @@ def main() -> None:
     comm = MPI.COMM_WORLD
     rows = []
     for n in args.sizes:
-        problem = NormalProblem(surface(n), Interface(Material(1.0, 0.0)), comm, operator="fft")
+        problem = NormalProblem(scene_surface(n), Interface(Material(1.0, 0.0)), comm, operator="fft")
         counter = Counter(problem.flexibility)
         with make_solver(problem, "cg") as solver:
             reference = solver.solve_load(0.01, rotation=(0.0, 0.0))

@@ -26,15 +26,13 @@ files). Reported, medians of --repeats runs in one invocation:
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import tempfile
 import time
-from pathlib import Path
 
 import numpy as np
 
-from _ranks import add_launch_arguments, emit, run_on_ranks, write_rows
+from _ranks import add_launch_arguments, emit, run_on_ranks, save_json, write_rows
 
 CASES = {
     "small": {"levels": 5, "seeds": 64, "loads": list(np.linspace(20.0, 120.0, 6)), "fields": "all"},
@@ -170,9 +168,7 @@ def main() -> None:
                   + f", rank 0 writes {row['rank0_write_MB_per_s']:.0f} MB/s ({row['task_files_MB']:.1f} MB)")
     report = {"benchmark": "ensemble farm: run_study on 1 and 2 ranks against a bare serial loop of the solves",
               "machine": {"cpus": os.cpu_count()}, "repeats": args.repeats, "cases": CASES, "rows": summary}
-    Path(args.output).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.output).write_text(json.dumps(report, indent=1))
-    print(f"wrote {args.output}")
+    save_json(report, args.output)
 
 
 if __name__ == "__main__":

@@ -36,27 +36,23 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
+from _ranks import save_json, scene_surface  # noqa: E402
 
 PRESSURE = 0.01          # mean pressure / E*
 
 
 def make_surface(n: int, seed: int = 1) -> np.ndarray:
-    from roughcontact.surfaces import fourier_surface
-
-    s = 1.0 / n
-    return np.asarray(fourier_surface(n, s, hurst=0.8, rms_slope=1.0, rolloff_wavelength=1.0,
-                                      short_cutoff_wavelength=8 * s, periodic=False, seed=seed).heights)
+    return np.asarray(scene_surface(n, seed).heights)
 
 
 def continuous_surfaces(sizes: list[int], seed: int = 2) -> dict[int, np.ndarray]:
     """One surface with its cut-off at L/16 (8 nodes of the coarsest grid), generated on the
     finest grid and decimated: the same continuous surface sampled at each n (n = 2^k)."""
-    from roughcontact.surfaces import Topography, coarsen, fourier_surface
+    from roughcontact.surfaces import Topography, coarsen
 
     finest = max(sizes)
     s = 1.0 / finest
-    fine = fourier_surface(finest, s, hurst=0.8, rms_slope=1.0, rolloff_wavelength=1.0,
-                           short_cutoff_wavelength=1.0 / 16, periodic=False, seed=seed)
+    fine = scene_surface(finest, seed, cutoff=1.0 / 16)
     out = {}
     for n in sizes:
         coarse = coarsen(Topography(fine.heights, s), finest // n, "decimate") if n < finest else fine
@@ -274,10 +270,9 @@ def main() -> None:
     summary = {"rows": rows, "notes": notes,
                "growth_exponent": {str(r): growth(rows, r) for r in args.ranks},
                "scene": {"hurst": 0.8, "rms_slope": 1.0, "mean_pressure_over_Estar": PRESSURE, "tolerance": 1e-8}}
-    output.write_text(json.dumps(summary, indent=1))
+    save_json(summary, output, f" and {output.with_suffix('.png')}")
     figure(rows, output.with_suffix(".png"))
     print(json.dumps(summary["growth_exponent"]), *notes, sep="\n")
-    print(f"wrote {output} and {output.with_suffix('.png')}")
 
 
 if __name__ == "__main__":

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _ranks import save_json  # noqa: E402
+from _ranks import save_json, scene_surface  # noqa: E402
 
 PRESSURES = (1e-4, 1e-3, 1e-2, 0.1, 0.3, 1.0)
 DIMENSIONS = (2.1, 2.3, 2.5, 2.8)
@@ -48,28 +48,25 @@ def row(args) -> None:
     from roughcontact.errors import ConvergenceError
     from roughcontact.materials import Interface, Material
     from roughcontact.normal import NormalProblem, make_solver
-    from roughcontact.surfaces import fourier_surface
 
     n = args.n
-    s = 1.0 / n
     flat = Interface(Material(1.0, 0.0))
-    for dimension in (args.dimension,):
-        topo = fourier_surface(n, s, fractal_dimension=dimension, rms_slope=1.0, rolloff_wavelength=1.0,
-                               short_cutoff_wavelength=8 * s, periodic=False, seed=1)
-        problem = NormalProblem(topo, flat, MPI.COMM_SELF, operator="fft")
-        for pressure in PRESSURES:
-            t0 = time.perf_counter()
-            out = {"method": args.method, "n": n, "fractal_dimension": dimension, "pressure": pressure}
-            try:
-                with make_solver(problem, args.method) as solver:
-                    result = solver.solve_load(pressure * topo.nominal_area, rotation=(0.0, 0.0))
-                out.update(outcome="converged", iterations=result.linear_iterations,
-                           outer=result.outer_iterations, contact_fraction=result.contact_fraction)
-            except ConvergenceError as exc:
-                out.update(outcome=exc.reason, message=str(exc)[:200])
-            out["seconds"] = time.perf_counter() - t0
-            print(json.dumps(out), flush=True)
-        problem.destroy()
+    dimension = args.dimension
+    topo = scene_surface(n, fractal_dimension=dimension)
+    problem = NormalProblem(topo, flat, MPI.COMM_SELF, operator="fft")
+    for pressure in PRESSURES:
+        t0 = time.perf_counter()
+        out = {"method": args.method, "n": n, "fractal_dimension": dimension, "pressure": pressure}
+        try:
+            with make_solver(problem, args.method) as solver:
+                result = solver.solve_load(pressure * topo.nominal_area, rotation=(0.0, 0.0))
+            out.update(outcome="converged", iterations=result.linear_iterations,
+                       outer=result.outer_iterations, contact_fraction=result.contact_fraction)
+        except ConvergenceError as exc:
+            out.update(outcome=exc.reason, message=str(exc)[:200])
+        out["seconds"] = time.perf_counter() - t0
+        print(json.dumps(out), flush=True)
+    problem.destroy()
 
 
 def heat_maps(rows: list[dict], path: Path) -> None:
@@ -133,14 +130,18 @@ def main() -> None:
             done = []
             for dimension in DIMENSIONS:
                 cmd = [sys.executable, str(Path(__file__).resolve()), "--row", method, str(n), str(dimension)]
+                missing = "timeout"                   # the outcome of the cases a row did not reach
                 try:
-                    stdout = subprocess.run(cmd, capture_output=True, text=True, timeout=args.limit).stdout
+                    finished = subprocess.run(cmd, capture_output=True, text=True, timeout=args.limit)
+                    stdout = finished.stdout
+                    if finished.returncode != 0:
+                        missing = f"crashed (rc={finished.returncode}): {finished.stderr.strip()[-200:]}"
                 except subprocess.TimeoutExpired as exc:
                     stdout = exc.stdout.decode() if isinstance(exc.stdout, bytes) else (exc.stdout or "")
-                done += [json.loads(line) for line in stdout.splitlines() if line.startswith("{")]
-            seen = {(r["fractal_dimension"], r["pressure"]) for r in done}
-            done += [{"method": method, "n": n, "fractal_dimension": d, "pressure": p, "outcome": "timeout",
-                      "seconds": None} for d, p in cases if (d, p) not in seen]
+                row_cases = [json.loads(line) for line in stdout.splitlines() if line.startswith("{")]
+                seen = {r["pressure"] for r in row_cases}
+                done += row_cases + [{"method": method, "n": n, "fractal_dimension": dimension, "pressure": p,
+                                      "outcome": missing, "seconds": None} for p in PRESSURES if p not in seen]
             for r in done:
                 print(json.dumps(r), flush=True)
             rows += done

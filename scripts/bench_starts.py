@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _ranks import save_json  # noqa: E402
+from _ranks import save_json, scene_surface  # noqa: E402
 
 
 def main() -> None:
@@ -41,13 +41,10 @@ def main() -> None:
 
     from roughcontact.materials import Interface, Material
     from roughcontact.normal import NormalProblem, make_solver
-    from roughcontact.surfaces import fourier_surface
 
     rows = []
     for n in args.sizes:
-        s = 1.0 / n
-        topo = fourier_surface(n, s, hurst=0.8, rms_slope=1.0, rolloff_wavelength=1.0,
-                               short_cutoff_wavelength=8 * s, periodic=False, seed=1)
+        topo = scene_surface(n)
         problem = NormalProblem(topo, Interface(Material(1.0, 0.0)), MPI.COMM_SELF, operator="fft")
         for nested in (False, True):
             with make_solver(problem, "cg", nested=nested) as solver:

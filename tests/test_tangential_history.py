@@ -83,6 +83,29 @@ def test_single_cycle_is_the_fretting_cycle(hertz16):
     assert path.loop_energy(steps, len(loads)) == pytest.approx(per_cycle, rel=0.03)
 
 
+def test_each_monotonic_state_is_solved_once(hertz16, monkeypatch):
+    """The same X = |Q − Q_k|/2 reached on several branches differs in its last bits; it is one
+    corrective solve, not one per branch (keyed on the raw float this path took 22). The
+    nested history below needs X = j fP/20, j = 0 … 16: 17 states. They nest, so nothing is warned."""
+    import warnings
+
+    from roughcontact.tangential.cattaneo import CattaneoSolver
+
+    problem, normal = hertz16
+    fp = FRICTION * normal.load
+    loads = np.concatenate([ramp(0, 0.6 * fp, 6), ramp(0.6 * fp, -0.2 * fp, 8), ramp(-0.2 * fp, 0.6 * fp, 8),
+                            ramp(0.6 * fp, 0.8 * fp, 2), ramp(0.8 * fp, -0.8 * fp, 16), ramp(-0.8 * fp, 0.8 * fp, 16)])
+    solved = []
+    solve = CattaneoSolver.solve
+    monkeypatch.setattr(CattaneoSolver, "solve", lambda self, q: solved.append(q) or solve(self, q))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        path = tangential_history(problem, normal, FRICTION, loads, method="ksp")
+    assert len(solved) == 17
+    assert np.allclose(np.sort(solved), fp * np.arange(17) / 20, rtol=1e-12, atol=0.0)
+    assert path.tangential.size == loads.size + 1
+
+
 def closed_form_history(loads: np.ndarray, virgin) -> np.ndarray:
     """δx along ``loads`` from the virgin curve δx(Q) by Masing's rules with memory, written
     independently of the module: a stack of turning points, a loop closes when Q passes the

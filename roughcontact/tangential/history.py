@@ -45,6 +45,10 @@ from ..normal.result import NormalResult
 from .cattaneo import CattaneoSolver, check_friction, check_normal, check_tangential
 from .energy import loop_area
 from .result import TangentialState
+from .sweep import check_resticking
+
+#: Digits of X / fP that tell two monotonic states apart (the corrective load's resolution is ~1e-13).
+CACHE_DIGITS = 12
 
 
 @dataclass(frozen=True)
@@ -135,14 +139,16 @@ def tangential_history(problem: NormalProblem, normal: NormalResult, friction: f
     for q in path:
         check_tangential(abs(require_finite("loads", q)), friction, normal.load, name="loads")
     path = np.concatenate([[0.0], path])
-    spacing2 = problem.topography.spacing**2
     with CattaneoSolver(problem, normal, friction, direction, **solver_options) as solver:
+        # keyed on X / fP to 12 digits: the same X reached along different branches differs in its
+        # last bits (0.0125 against 0.012499999999999997), and each miss is a corrective solve
         cache: dict[float, TangentialState] = {}
 
         def monotonic(x: float) -> TangentialState:
-            if x not in cache:
-                cache[x] = solver.solve(x)
-            return cache[x]
+            key = round(x / solver.limit_load, CACHE_DIGITS)
+            if key not in cache:
+                cache[key] = solver.solve(x)
+            return cache[key]
 
         def energy(branch: _Branch, x: float) -> float:
             return branch.factor * monotonic(x).frictional_energy
@@ -187,6 +193,8 @@ def tangential_history(problem: NormalProblem, normal: NormalResult, friction: f
             previous = (traction, approach)
             states.append((q_load, approach, dissipated, state.slip_area, len(stack), traction))
         model = solver.model
+    # every state superposes monotonic ones, whose stick sets must recede as X grows (Eq. 26)
+    check_resticking([cache[key] for key in sorted(cache)], between="two monotonic states of the history")
     q, d, e, area, depth, tractions = zip(*states)
     return TangentialHistory(tangential=np.array(q), approach=np.array(d), dissipated=np.array(e),
                              slip_area=np.array(area), memory=np.array(depth), tractions=tuple(tractions),

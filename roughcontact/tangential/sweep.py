@@ -113,6 +113,20 @@ def resticking_nodes(states) -> int:
     return max((int((b.stick & ~a.stick).sum()) for a, b in zip(states, states[1:])), default=0)
 
 
+def check_resticking(states, between: str = "two steps of the sweep", stacklevel: int = 3) -> int:
+    """:func:`resticking_nodes` of ``states`` (in increasing Q), warned about unless zero.
+
+    ``stacklevel`` 3 points the :class:`CattaneoConsistencyWarning` at the
+    caller of the function that calls this one.
+    """
+    resticking = resticking_nodes(states)
+    if resticking:
+        warnings.warn(f"{resticking} node(s) joined the stick set between {between}: the "
+                      "stick sets do not recede, so E_f (Eq. 26) undercounts their earlier slip "
+                      "(resticking_nodes)", CattaneoConsistencyWarning, stacklevel=stacklevel)
+    return resticking
+
+
 def tangential_sweep(problem: NormalProblem, normal: NormalResult, friction: float,
                      steps: int | None = None, tangential=None, direction=(1.0, 0.0),
                      include_limit: bool = True, **solver_options) -> TangentialSweep:
@@ -145,9 +159,5 @@ def tangential_sweep(problem: NormalProblem, normal: NormalResult, friction: flo
         if include_limit:
             states.append(solver.incipient_sliding())
     elapsed = time.perf_counter() - t0
-    resticking = resticking_nodes(states)
-    if resticking:
-        warnings.warn(f"{resticking} node(s) joined the stick set between two steps of the sweep: the "
-                      "stick sets do not recede, so E_f (Eq. 26) undercounts their earlier slip "
-                      "(resticking_nodes)", CattaneoConsistencyWarning, stacklevel=2)
+    resticking = check_resticking(states)
     return TangentialSweep(states=tuple(states), elapsed=elapsed, resticking_nodes=resticking)

@@ -37,7 +37,7 @@ import inspect
 import json
 import re
 import tomllib
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -48,7 +48,7 @@ from ..errors import InputError
 from ..materials import Interface, Material
 from . import schema
 from .axes import Dimension, check_value, parse_axes, positions
-from .task import FrettingOptions, NormalOptions, TangentialOptions, Task, generators
+from .task import FrettingOptions, Loading, NormalOptions, TangentialOptions, Task, generators
 
 DEFAULT_STUDY: dict[str, Any] = {
     "name": "fractal-ensemble",
@@ -69,19 +69,14 @@ _SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
 
 
 @dataclass(frozen=True)
-class Study:
-    """A validated study definition: the tasks, how they are solved and what is stored."""
+class Study(Loading):
+    """A validated study definition: the tasks, how they are solved (:class:`~.task.Loading`,
+    the same for every task) and what is stored."""
 
     name: str
     surface: dict[str, Any]
     dimensions: tuple[Dimension, ...]
     interface: Interface | None
-    loads: tuple[float, ...]
-    load_dim: str = "normal_load"
-    normal: NormalOptions = field(default_factory=NormalOptions)
-    tangential: TangentialOptions | None = None
-    fretting: FrettingOptions | None = None
-    fields: str = "contact"
     ranks_per_task: int = 1
     description: str = ""
     text: str = ""
@@ -106,9 +101,7 @@ class Study:
             if surface["generator"] == "file" and self.base_dir is not None:
                 surface["path"] = str(self.base_dir / surface["path"])
             out.append(Task(index=index, position=position, labels=values, surface=surface,
-                            interface=values.get("materials", self.interface), loads=self.loads,
-                            load_dim=self.load_dim, normal=self.normal, tangential=self.tangential,
-                            fretting=self.fretting, fields=self.fields))
+                            interface=values.get("materials", self.interface), **self.loading()))
         return out
 
 

@@ -12,6 +12,7 @@ import time
 import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from dataclasses import fields as dataclass_fields
 from pathlib import Path
 from typing import Any
 
@@ -74,14 +75,34 @@ class FrettingOptions:
     at: tuple[int, ...]
 
 
+@dataclass(frozen=True, kw_only=True)
+class Loading:
+    """What every task of a study is asked, held by the study and by each of its tasks.
+
+    ``loads`` are P (N) when ``load_dim`` is ``"normal_load"``, nominal
+    pressures σ0 = P/A0 (Pa) when it is ``"mean_pressure"``; ``normal``,
+    ``tangential`` and ``fretting`` say how they are solved, ``fields`` what
+    is stored (:data:`roughcontact.datasets.FIELDS`).
+    """
+
+    loads: tuple[float, ...]
+    load_dim: str = "normal_load"
+    normal: NormalOptions = field(default_factory=NormalOptions)
+    tangential: TangentialOptions | None = None
+    fretting: FrettingOptions | None = None
+    fields: str = "contact"
+
+    def loading(self) -> dict[str, Any]:
+        """These fields by name (what a study hands each of its tasks)."""
+        return {f.name: getattr(self, f.name) for f in dataclass_fields(Loading)}
+
+
 @dataclass(frozen=True)
-class Task:
+class Task(Loading):
     """Everything one task needs, and nothing else (pickled to the rank that solves it).
 
     ``position`` is its index along each study dimension, ``labels`` the axis
-    values that made it; ``loads`` are P (N) when ``load_dim`` is
-    ``"normal_load"``, nominal pressures σ0 = P/A0 (Pa) when it is
-    ``"mean_pressure"``.
+    values that made it; the loads and options are those of :class:`Loading`.
     """
 
     index: int
@@ -89,12 +110,6 @@ class Task:
     labels: dict[str, Any]
     surface: dict[str, Any]
     interface: Interface
-    loads: tuple[float, ...]
-    load_dim: str = "normal_load"
-    normal: NormalOptions = field(default_factory=NormalOptions)
-    tangential: TangentialOptions | None = None
-    fretting: FrettingOptions | None = None
-    fields: str = "contact"
 
     @property
     def name(self) -> str:

@@ -167,7 +167,14 @@ def test_q_within_round_off_of_fp_is_solved_or_full_sliding(sphere):
     # a corrective solve that cannot converge (one active-set iteration allowed): within the
     # load tolerance of fP it is the full-sliding limit, far from fP the failure it is
     starved = dict(settings=ActiveSetSettings(max_outer=1))
-    with raises("tangential", match="load tolerance"):
+    with raises("tangential", match="load tolerance \\(1e-08\\)") as info:
         tangential_sweep(problem, imposed, f, tangential=[f * imposed.load * (1 - 2e-9)], **starved, method="ksp")
+    assert isinstance(info.value.__cause__, ConvergenceError)
+    # the band is the corrective solver's own load tolerance
+    loose = dict(settings=ActiveSetSettings(max_outer=1, load_tol=1e-6))
+    with raises("tangential", match="load tolerance \\(1e-06\\)"):
+        tangential_sweep(problem, imposed, f, tangential=[f * imposed.load * (1 - 2e-7)], **loose, method="ksp")
+    with pytest.raises(ConvergenceError):
+        tangential_sweep(problem, imposed, f, tangential=[f * imposed.load * (1 - 2e-7)], **starved, method="ksp")
     with pytest.raises(ConvergenceError):
         tangential_sweep(problem, imposed, f, tangential=[0.5 * f * imposed.load], **starved, method="ksp")

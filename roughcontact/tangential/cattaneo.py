@@ -74,15 +74,6 @@ def check_direction(direction) -> tuple[float, float]:
     return ex / norm, ey / norm
 
 
-#: Q within this fraction of fP may be the full-sliding limit. A load-controlled normal solve
-#: meets its load only to its load tolerance (1e-8; the solved P differs from the imposed one by
-#: ~1e-13 relative in practice), so Q = fP reached as ``np.linspace(0, f * P, n)[-1]`` may sit a
-#: hair below f times the solved P, and the corrective load P* = P − Q/f is then below the
-#: resolution of P itself. In this band a corrective solve that fails means full sliding and is
-#: reported as such; one that succeeds (P* = 1e-9 P still leaves a sticking node) is kept.
-FULL_SLIDING_RTOL = 1e-8
-
-
 def check_tangential(tangential, friction: float, load: float, name: str = "tangential") -> float:
     """Q as a float in [0, fP), or :class:`InputError` saying why not (Q ≥ fP: full sliding)."""
     q = require_finite(name, tangential)
@@ -93,9 +84,9 @@ def check_tangential(tangential, friction: float, load: float, name: str = "tang
     return q
 
 
-def full_sliding(name: str, q: float, limit: float, within: bool = False) -> InputError:
-    """The error for Q at or beyond fP (``within``: below fP by less than the load tolerance)."""
-    detail = f" to within the normal solve's load tolerance ({FULL_SLIDING_RTOL:g})" if within else ""
+def full_sliding(name: str, q: float, limit: float, within: float | None = None) -> InputError:
+    """The error for Q at or beyond fP (``within``: the load tolerance by which Q is below fP)."""
+    detail = f" to within the normal solve's load tolerance ({within:g})" if within is not None else ""
     return InputError(name, f"Q = {q:.6g} N >= fP = {limit:.6g} N{detail}: full sliding. The traction is then "
                             "f p everywhere but the tangential displacements are undetermined (§5.2); use "
                             "CattaneoSolver.incipient_sliding() for the limit Q -> fP (Eq. 27)")
@@ -206,9 +197,16 @@ class CattaneoSolver(Collective):
         else:
             try:
                 corrective = self.solver.solve_load(normal.load - q_load / f, rotation=normal.rotation)
-            except ConvergenceError:
-                if q_load >= self.limit_load * (1.0 - FULL_SLIDING_RTOL):
-                    raise full_sliding("tangential", q_load, self.limit_load, within=True) from None
+            except ConvergenceError as err:
+                # A load-controlled normal solve meets its load only to its load tolerance (the
+                # solved P differs from the imposed one by ~1e-13 relative in practice), so Q = fP
+                # reached as np.linspace(0, f * P, n)[-1] may sit a hair below f times the solved
+                # P, and P* = P − Q/f is then below the resolution of P itself. Within that
+                # tolerance of fP a failed corrective solve means full sliding; one that succeeds
+                # (P* = 1e-9 P still leaves a sticking node) is kept.
+                load_tol = self.solver.settings.load_tol
+                if q_load >= self.limit_load * (1.0 - load_tol):
+                    raise full_sliding("tangential", q_load, self.limit_load, within=load_tol) from err
                 raise
             # Eq. 21; the stick set lies inside the contact set (receding problem), and a node of
             # p* outside it would show as negative traction in coulomb_violation

@@ -16,8 +16,8 @@ import numpy as np
 import xarray as xr
 
 from . import __version__
-from .errors import InputError
 from .normal.result import NormalResult
+from .surfaces._checks import check_choice
 
 _SCALARS = {
     # name: (getter, units, long_name)
@@ -67,9 +67,7 @@ _FIELDS = {
 
 def check_fields(fields: str, parameter: str = "fields") -> str:
     """``fields`` if it is one of :data:`FIELDS`, else :class:`InputError` naming ``parameter``."""
-    if fields not in FIELDS:
-        raise InputError(parameter, f"must be one of {', '.join(repr(f) for f in FIELDS)}, got {fields!r}")
-    return fields
+    return check_choice(parameter, fields, FIELDS)
 
 
 def stored_fields(table: dict, fields: str) -> list[str]:

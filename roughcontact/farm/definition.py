@@ -45,6 +45,7 @@ import numpy as np
 
 from ..datasets import check_fields
 from ..errors import InputError
+from ..surfaces._checks import check_choice
 from ..materials import Interface, Material
 from . import schema
 from .axes import Dimension, check_value, parse_axes, positions
@@ -191,9 +192,7 @@ def _surface(table: dict):
     surface = dict(table)
     generator = schema.string("surface.generator", surface.get("generator", "midpoint"))
     functions = generators()
-    if generator not in functions:
-        raise InputError("surface.generator", f"must be one of {sorted(functions)}, got {generator!r}")
-    surface["generator"] = generator
+    surface["generator"] = check_choice("surface.generator", generator, sorted(functions))
     function = functions[generator]
     schema.only(surface, _parameters(function) | COMMON_SURFACE_KEYS, "surface")
     for key, value in surface.items():

@@ -62,12 +62,10 @@ def integer(where: str, value, minimum: int | None = None) -> int:
     return value
 
 
-def string(where: str, value, choices=None) -> str:
-    """A string, one of ``choices`` when given."""
+def string(where: str, value) -> str:
+    """A string."""
     if not isinstance(value, str):
         raise InputError(where, f"must be a string, got {_kind(value)} {value!r}")
-    if choices is not None and value not in choices:
-        raise InputError(where, f"must be one of {', '.join(repr(c) for c in choices)}, got {value!r}")
     return value
 
 

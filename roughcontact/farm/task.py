@@ -18,16 +18,19 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError, RoughContactError
+from ..errors import RoughContactError
 from ..materials import Interface
+from ..normal.solver import METHODS as _NORMAL_METHODS
+from ..operators.memory import KINDS
+from ..surfaces._checks import check_choice
 from ..surfaces.topography import Topography
 
 #: flexibility operators a study's ``normal.operator`` may name (built in :func:`open_normal_solver`;
 #: "auto": :func:`roughcontact.normal.choice.choose_operator`)
-OPERATORS = ("auto", "dense", "fft", "fft-periodic")
+OPERATORS = ("auto", *KINDS)
 #: normal methods (``normal.method``, :func:`roughcontact.normal.make_solver`; "auto":
 #: :func:`roughcontact.normal.choice.choose_method`)
-METHODS = ("auto", "ksp", "gauss-seidel", "cg")
+METHODS = ("auto", *_NORMAL_METHODS)
 
 
 @dataclass(frozen=True)
@@ -38,10 +41,8 @@ class NormalOptions:
     method: str = "auto"
 
     def __post_init__(self):
-        for key, value, choices in (("operator", self.operator, OPERATORS), ("method", self.method, METHODS)):
-            if value not in choices:
-                raise InputError(f"normal.{key}", f"must be one of {', '.join(repr(c) for c in choices)}, "
-                                                  f"got {value!r}")
+        check_choice("normal.operator", self.operator, OPERATORS)
+        check_choice("normal.method", self.method, METHODS)
 
 
 @dataclass(frozen=True)

@@ -30,11 +30,6 @@ PREFIX = "uncoupled_error_"
 _SLACK = 1e-6
 
 
-def metrics() -> dict[str, str]:
-    """The metrics of the table and what each measures."""
-    return dict(measured.METRICS)
-
-
 def _bracket(values: tuple[float, ...], low: float, high: float) -> range | None:
     """Indices of the charted ``values`` from the last ≤ low to the first ≥ high; None outside."""
     if low < values[0] - _SLACK or high > values[-1] + _SLACK:
@@ -50,9 +45,10 @@ def uncoupled_error_bound(metric: str, gamma: float, beta: float, load_ratios: I
     Parameters
     ----------
     metric
-        A key of :func:`metrics` (``"approach"``: δx relative, ``"frictional_energy"``:
-        E_f relative, ``"stick_area"``, ``"stick_force"`` (/ fP), ``"centroid"``
-        (G_Q, spacings), ``"cross_traction"`` (|q_⊥| / f max p)).
+        A key of ``METRICS`` in :mod:`.uncoupled_error_table` (``"approach"``: δx
+        relative, ``"frictional_energy"``: E_f relative, ``"stick_area"``,
+        ``"stick_force"`` (/ fP), ``"centroid"`` (G_Q, spacings),
+        ``"cross_traction"`` (|q_⊥| / f max p)).
     gamma, beta
         Composite Poisson ratio γ (Eq. 4b) and Dundurs' β (Eq. 5) of the interface.
     load_ratios

@@ -130,7 +130,7 @@ class IncrementSolver:
         self.operator = operator
         self.nodes = nodes
         self.limit = limit
-        self.limit_scale = float(problem.allmax(limit.max(initial=0.0)))
+        self.limit_total = float(problem.allsum(limit.sum()))        # fP (N)
         self.settings = settings
         self.scope = OptionsScope(prefix, options)
         self.ksp = PETSc.KSP().create(problem.comm)
@@ -246,13 +246,6 @@ class IncrementSolver:
             carried = pb.allsum(q.sum(axis=1))
             residual = max(residual, float(np.hypot(*(carried - target))) / (self.limit_total or 1.0))
         return residual
-
-    @property
-    def limit_total(self) -> float:
-        """fP (N)."""
-        if not hasattr(self, "_limit_total"):
-            self._limit_total = float(self.problem.allsum(self.limit.sum()))
-        return self._limit_total
 
     def _set_operator(self, basis: Basis, curvature: np.ndarray) -> None:
         self._free()

@@ -1,10 +1,9 @@
-"""The coupled shear operator T of Eqs. 15–16 as PETSc Mats, and the Newton system of a step.
+"""The coupled shear operator T of Eqs. 15–16, and the Newton system of a step as a PETSc Mat.
 
 :class:`ShearOperator` holds T over the footprint of a normal problem
 (:class:`~roughcontact.operators.shear.ShearConvolution`, matrix-free: two
 FFT transforms each way per product) on that problem's communicator and row
-layout: :attr:`ShearOperator.mat` is T as a Python Mat on the 2N unknowns
-(this rank's q_x, then its q_y), symmetric positive definite.
+layout: :meth:`ShearOperator.product` applies it to this rank's (q_x, q_y).
 
 A step of the incremental stick/slip problem (:mod:`.increment`) solves, on
 the contact nodes, the Newton system K y = b of the stick set and the slip
@@ -54,14 +53,8 @@ class ShearOperator(Collective):
         self.gamma = float(gamma)
         self.convolution = ShearConvolution(flexibility.shape, flexibility.spacing, flexibility.compliance,
                                             self.gamma, self.comm, workers=flexibility.convolution.workers)
-        self.diagonal = float(self.convolution.tables[0][0, 0])
         rows = (self.layout.rows[1] - self.layout.rows[0], flexibility.shape[1])
         self._slabs = (np.zeros(rows), np.zeros(rows))
-        local = 2 * self.layout.local_size
-        self.mat = PETSc.Mat().createPython(((local, None), (local, None)), _Full(self), comm=self.comm)
-        self.mat.setOption(PETSc.Mat.Option.SYMMETRIC, True)
-        self.mat.setOption(PETSc.Mat.Option.SPD, True)
-        self.mat.setUp()
 
     def product(self, qx: np.ndarray, qy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(u_x, u_y) = T (q_x, q_y) on this rank's footprint nodes (Eqs. 15–16); collective."""
@@ -73,26 +66,7 @@ class ShearOperator(Collective):
         return layout.from_slab(ux).copy(), layout.from_slab(uy).copy()
 
     def _release(self) -> None:
-        self.mat.destroy()
-
-
-class _Full:
-    """Python context of T on (this rank's q_x, this rank's q_y)."""
-
-    def __init__(self, operator: ShearOperator):
-        self.operator = operator
-
-    def mult(self, mat, x, y):
-        n = self.operator.layout.local_size
-        values = x.getArray(readonly=True)
-        ux, uy = self.operator.product(values[:n], values[n:])
-        out = y.getArray()
-        out[:n], out[n:] = ux, uy
-
-    multTranspose = mult
-
-    def getDiagonal(self, mat, diagonal):
-        diagonal.set(self.operator.diagonal)
+        """Nothing to free (no PETSc objects of its own); later products raise DestroyedError."""
 
 
 class Basis:

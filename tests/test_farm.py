@@ -263,6 +263,27 @@ def test_task_files_read_back_as_written(comm):
     assert set(task_groups(failed)) == {"/"}
 
 
+def test_task_file_larger_than_the_study_is_refused_by_name(tmp_path):
+    """A task file with more loads than the study (not one of its tasks) is an error naming the
+    file, not a silently dropped set of fields."""
+    from roughcontact.farm.combine import combine
+    from roughcontact.farm.records import encode
+
+    def study(loads):
+        return load_study(tiny(name="misfit", tangential={}, axes={"seeds": 2}, normal={"loads": loads},
+                               surface={"generator": "midpoint", "levels": 3, "spacing": 1e-4,
+                                        "rms_height": 1e-5, "fractal_dimension": 2.3},
+                               output={"fields": "none"}))
+
+    small, large = study([2.0, 5.0]), study([2.0, 5.0, 10.0])
+    paths = {0: tmp_path / "task-0.nc", 1: tmp_path / "task-1.nc"}
+    encode(task_groups(solve_task(small.tasks()[0], MPI.COMM_SELF)), paths[0])
+    encode(task_groups(solve_task(large.tasks()[1], MPI.COMM_SELF)), paths[1])
+    with pytest.raises(InputError, match="normal_load.*not a file of this study") as info:
+        combine(small, paths)
+    assert info.value.parameter == str(paths[1])
+
+
 def test_ensemble_statistics_are_student_t_intervals_over_seeds():
     """Mean, sample standard deviation and the 95 % Student-t interval of the mean over seeds,
     against numpy and scipy.stats.t.interval on each column (to 1e-12: the same formulas

@@ -18,11 +18,16 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from ..errors import InputError
 from .netcdf import read_groups
 from .records import INT8_FILL, LOAD_COORDINATE, encode
 
 # integer variables that keep their type (every task has them, or −1 marks a missing one)
 _KEEP_DTYPE = {"status", "branch"}
+
+
+class _Misfit(ValueError):
+    """A variable of a task file that is larger than the study's dimensions allow."""
 
 
 class _Group:
@@ -64,7 +69,11 @@ class _Group:
                 array = np.full(shape, np.nan)
             self.arrays[name] = (var.dims, array, dict(var.attrs), var.is_coord)
         dims, array, _, _ = self.arrays[name]
-        if values.ndim and any(n > m for n, m in zip(values.shape, array.shape[len(position):])):
+        room = array.shape[len(position):]
+        if values.ndim and any(n > m for n, m in zip(values.shape, room)):
+            if "x" not in var.dims:
+                raise _Misfit(f"{name} has {dict(zip(var.dims, values.shape))}, more than the study's "
+                              f"{dict(zip(dims, room))}")
             self.grids_differ = True   # a field on a larger grid than the first: kept in the task files
             return
         array[position + tuple(slice(0, n) for n in values.shape)] = values
@@ -101,7 +110,11 @@ def combine(study, paths) -> dict[str, xr.Dataset]:
     groups: dict[str, _Group] = {}
     for task in study.tasks():
         for name, (variables, attrs) in read_groups(paths[task.index]).items():
-            groups.setdefault(name, _Group(study.shape, sizes)).add(task.position, variables, attrs)
+            try:
+                groups.setdefault(name, _Group(study.shape, sizes)).add(task.position, variables, attrs)
+            except _Misfit as exc:
+                raise InputError(str(paths[task.index]), f"group {name}: {exc}: not a file of this study's "
+                                                         f"{task.name}; remove it to solve the task again") from None
     study_dims = tuple(d.name for d in study.dimensions)
     study_coords = {}
     for dim in study.dimensions:

@@ -11,7 +11,7 @@ from roughcontact.errors import InputError
 from roughcontact.materials import Interface, Material
 from roughcontact.normal import ActiveSetSolver, NormalProblem
 from roughcontact.surfaces import Topography
-from roughcontact.tangential import CattaneoSolver, fretting_cycle, tangential_sweep
+from roughcontact.tangential import CattaneoSolver, fretting_cycle, fretting_map, tangential_sweep
 
 EXACT = Interface(Material(200e9, 0.0), Material(200e9, 0.0))
 
@@ -92,6 +92,17 @@ def test_normal_state_must_belong_to_the_problem(comm, sphere):
         other.destroy()
     with raises("normal"):
         CattaneoSolver(problem, "not a result", 0.3, method="ksp")
+    with raises("normal", match="P must be > 0"):
+        fretting_map(problem, unloaded, 0.3, [0.5], method="ksp")
+    with raises("normal"):
+        fretting_map(problem, "not a result", 0.3, [0.5], method="ksp")
+
+
+@pytest.mark.parametrize("amplitudes", [[], [0.0, 0.5], [0.5, 1.0], [0.5, 0.3], [np.nan]])
+def test_fretting_map_amplitudes(sphere, amplitudes):
+    problem, normal = sphere
+    with raises("amplitudes"):
+        fretting_map(problem, normal, 0.3, amplitudes, method="ksp")
 
 
 def test_auto_corrective_solver_reads_the_cattaneo_prefix(sphere):

@@ -24,7 +24,7 @@ import numpy as np
 from ..errors import InputError
 from ..normal.problem import NormalProblem
 from ..normal.result import NormalResult
-from .cattaneo import check_friction, check_steps
+from .cattaneo import check_friction, check_normal, check_steps
 from .history import TangentialHistory, tangential_history
 
 
@@ -135,10 +135,9 @@ def fretting_map(problem: NormalProblem, normal: NormalResult, friction: float, 
         Options of the corrective solver (:class:`~.cattaneo.CattaneoSolver`).
     """
     friction = check_friction(friction)
+    check_normal(problem, normal)
     values = check_amplitudes(amplitudes)
     steps = check_steps(steps)
-    if not normal.load > 0.0:
-        raise InputError("normal", f"a fretting map needs P > 0 (fP bounds Q*), got P = {normal.load!r}")
     path, starts, stops = stepped_amplitude_path(friction * normal.load, values, steps)
     history = tangential_history(problem, normal, friction, path, direction=direction, **solver_options)
     dissipated = np.array([history.dissipated[b] - history.dissipated[a] for a, b in zip(starts, stops)])

@@ -266,8 +266,8 @@ class CattaneoSolver(Collective):
             corrective_closure=float(corrective_closure),
             stick_area=float(stick.sum()) * s**2, slip_area=float(slip.sum()) * s**2,
             stick_force=q_stick, slip_force=q_slip,
-            centroid=_centroid(traction, contact, s), stick_centroid=_centroid(traction, stick, s),
-            slip_centroid=_centroid(traction, slip, s),
+            centroid=centroid_of(traction, contact, s), stick_centroid=centroid_of(traction, stick, s),
+            slip_centroid=centroid_of(traction, slip, s),
             frictional_energy=frictional_energy(normal.force, slip_distance, slip, f),
             stored_energy=stored_energy(traction, displacement),
             coulomb_violation=violation, model=self.model, limit=limit, spacing=s,
@@ -281,7 +281,7 @@ class CattaneoSolver(Collective):
         return pb.to_field(pb.gather(pb.displacement(values)), np.nan)
 
 
-def _centroid(traction: np.ndarray, zone: np.ndarray, spacing: float) -> tuple[float, float]:
+def centroid_of(traction: np.ndarray, zone: np.ndarray, spacing: float) -> tuple[float, float]:
     """Centroid of the shear forces in ``zone`` (grid frame, m); NaN if they sum to zero."""
     total = float(traction[zone].sum())
     if total <= 0.0:

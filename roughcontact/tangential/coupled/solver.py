@@ -21,7 +21,7 @@ from ...errors import InputError, require_finite
 from ...materials import Interface
 from ...normal.problem import NormalProblem
 from ...normal.result import NormalResult
-from ..cattaneo import _centroid, check_direction, check_friction, check_normal, full_sliding
+from ..cattaneo import centroid_of, check_direction, check_friction, check_normal, full_sliding
 from .increment import DISPLACEMENT, LOAD, CoupledSettings, Increment, IncrementSolver
 from .operator import ShearOperator
 from .result import CoupledState
@@ -172,8 +172,8 @@ class CoupledTangentialSolver(Collective):
             stick_area=float(stick.sum()) * s**2, slip_area=float(slip.sum()) * s**2,
             stick_force=(float(qx[stick].sum()), float(qy[stick].sum())),
             slip_force=(float(qx[slip].sum()), float(qy[slip].sum())),
-            centroid=_centroid(sign * along, contact, s), stick_centroid=_centroid(sign * along, stick, s),
-            slip_centroid=_centroid(sign * along, slip, s),
+            centroid=centroid_of(sign * along, contact, s), stick_centroid=centroid_of(sign * along, stick, s),
+            slip_centroid=centroid_of(sign * along, slip, s),
             coulomb_violation=max(0.0, float(excess)) / (f * p_max) if p_max > 0 else 0.0,
             iterations=increment.iterations, linear_iterations=increment.linear_iterations,
             residual=increment.residual, spacing=s, elapsed=time.perf_counter() - t0)

@@ -43,7 +43,6 @@ class Groups:
         group_count(comm.Get_size(), size)
         rank = comm.Get_rank()
         self.comm = comm
-        self.size = size
         self.group = comm.Split(rank // size, rank)
         self.is_leader = self.group.Get_rank() == 0
         self.leaders = comm.Split(0 if self.is_leader else MPI.UNDEFINED, rank)
@@ -124,7 +123,7 @@ def _feed(executor, tasks, deliver, remote_workers: int, root_works: bool, comm)
         task = take()
         if task is None:
             return
-        future = executor.submit(_remote, task)
+        future = executor.submit(_lead, task)
         with settled:
             outstanding.add(future)
         future.add_done_callback(lambda f: finished(f, task))
@@ -156,12 +155,8 @@ def _feed(executor, tasks, deliver, remote_workers: int, root_works: bool, comm)
         settled.wait_for(lambda: not outstanding and not queue)
 
 
-def _remote(task):
-    """A task on a leader other than rank 0 (called by the executor's worker loop)."""
-    return _lead(task)
-
-
 def _lead(task):
+    """A task on a leader: on rank 0, or on another leader (called by the executor's worker loop)."""
     groups = _STATE["groups"]
     if groups.group.Get_size() > 1:
         groups.group.bcast(task, root=0)

@@ -18,10 +18,10 @@ from ..errors import InputError
 #: vectors, the result fields and the task file being encoded
 MEMORY_SHARE = 0.8
 
-#: bytes per grid node and solve of the fields stored at each level (force, pressure, gap:
-#: float64; contact, zone: int8); tangential fields: traction, slip, energy density and zone
-_NORMAL_BYTES = {"none": 0, "contact": 1, "all": 3 * 8 + 1}
-_TANGENTIAL_BYTES = {"none": 0, "contact": 1, "all": 3 * 8 + 1}
+#: bytes per grid node and solve of the fields stored at each level, the same for a normal
+#: solve (force, pressure, gap: float64; contact: int8) and a tangential state (traction,
+#: slip, energy density: float64; zone: int8)
+_FIELD_BYTES = {"none": 0, "contact": 1, "all": 3 * 8 + 1}
 
 
 def available_memory() -> int:
@@ -128,10 +128,10 @@ def storage_estimate(study, grid_nodes: int) -> str:
     """What the results will weigh, said before the run (an upper bound before compression)."""
     tasks = math.prod(study.shape)
     loads = len(study.loads)
-    per_task = loads * (20 * 8 + _NORMAL_BYTES[study.fields] * grid_nodes)
+    per_task = loads * (20 * 8 + _FIELD_BYTES[study.fields] * grid_nodes)
     if study.tangential is not None:
         states = study.tangential.steps + 1
-        per_task += loads * states * (25 * 8 + _TANGENTIAL_BYTES[study.fields] * grid_nodes)
+        per_task += loads * states * (25 * 8 + _FIELD_BYTES[study.fields] * grid_nodes)
     total = tasks * per_task
     return (f"fields {study.fields!r}: up to {_size(total)} for {tasks} task(s) × {loads} load(s) "
             f"on up to {grid_nodes} nodes, once in the task files and once in {study.name}.nc "

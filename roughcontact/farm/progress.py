@@ -20,7 +20,7 @@ class Progress:
         self.stream = stream or sys.stderr
         self.enabled = enabled and hasattr(self.stream, "isatty") and self.stream.isatty()
         self.solved = 0
-        self.failed: dict[int, str] = {}
+        self.failed = 0
         self.written = 0
         self.start = time.perf_counter()
         self._lock = threading.Lock()
@@ -29,12 +29,11 @@ class Progress:
     def elapsed(self) -> float:
         return time.perf_counter() - self.start
 
-    def task_done(self, index: int, error: str | None, nbytes: int) -> None:
+    def task_done(self, failed: bool, nbytes: int) -> None:
         with self._lock:
             self.solved += 1
             self.written += nbytes
-            if error:
-                self.failed[index] = error
+            self.failed += bool(failed)
             if self.enabled:
                 self.stream.write("\r" + self.line())
                 self.stream.flush()
@@ -43,7 +42,7 @@ class Progress:
         done = self.resumed + self.solved
         remaining = self.total - done
         eta = self.elapsed / self.solved * remaining if self.solved else float("nan")
-        return (f"{self.name}: {done}/{self.total} tasks, {len(self.failed)} failed, "
+        return (f"{self.name}: {done}/{self.total} tasks, {self.failed} failed, "
                 f"{_clock(self.elapsed)} elapsed, ETA {_clock(eta)}  ")
 
     def close(self) -> None:

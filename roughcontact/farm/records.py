@@ -53,8 +53,6 @@ def task_groups(outcome: TaskOutcome) -> dict[str, xr.Dataset]:
     coordinate = (values, LOAD_COORDINATE[dim])
     spacing = outcome.topography.spacing if outcome.topography is not None else np.nan
     root = normal_sweep_dataset(outcome.normal, spacing, dim=dim, coordinate=coordinate, fields=task.fields)
-    if dim not in root.coords:   # nothing solved: an empty load dimension
-        root = root.assign_coords({dim: (dim, values, LOAD_COORDINATE[dim])})
     if task.tangential is not None:
         root["incipient_sliding_energy"] = (
             (dim,), np.asarray(outcome.incipient_energy, dtype=float),

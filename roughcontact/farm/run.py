@@ -90,7 +90,7 @@ def run_study(study: Study, comm, output: str | Path, log: Callable = print, qui
 
     def deliver(task, payload):
         error, data = payload
-        progress.task_done(task.index, error, store.write(task.index, data))
+        progress.task_done(bool(error), store.write(task.index, data))
 
     run_farm(pending, comm, k, work, deliver)
     progress.close()

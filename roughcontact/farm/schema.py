@@ -32,11 +32,11 @@ def only(table: dict, allowed: set[str], where: str) -> None:
         raise InputError(f"{where}.{unknown[0]}", f"unknown key; allowed: {', '.join(sorted(allowed))}")
 
 
-def section(raw: dict, name: str, where: str = "") -> dict:
+def section(raw: dict, name: str) -> dict:
     """The table ``raw[name]`` (empty if absent), or :class:`InputError` if it is not a table."""
     value = raw.get(name, {})
     if not isinstance(value, dict):
-        raise InputError(f"{where}{name}", f"must be a table, got {_kind(value)} {value!r}")
+        raise InputError(name, f"must be a table, got {_kind(value)} {value!r}")
     return value
 
 

@@ -3,6 +3,7 @@ every assertion must hold on every rank (results are replicated on all ranks).""
 from __future__ import annotations
 
 import gc
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,6 +22,12 @@ def pytest_configure(config):
 @pytest.fixture
 def comm():
     return MPI.COMM_WORLD
+
+
+@pytest.fixture
+def shared_dir(tmp_path, comm):
+    """Rank 0's temporary directory on every rank: rank 0 writes the files, every rank reads them."""
+    return Path(comm.bcast(str(tmp_path), root=0))
 
 
 @pytest.fixture(autouse=True)

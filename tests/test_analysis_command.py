@@ -27,12 +27,6 @@ LOADS = (5.0, 10.0, 20.0, 40.0, 80.0, 160.0)
 MEASURES = {"box_counting", "renormalisation", "force_statistics", "multifractal", "clusters", "closure"}
 
 
-@pytest.fixture
-def shared_dir(tmp_path, comm):
-    """One directory for all ranks (rank 0's), since rank 0 writes the files."""
-    return Path(comm.bcast(str(tmp_path), root=0))
-
-
 def arguments(*argv: str) -> argparse.Namespace:
     parser = argparse.ArgumentParser(prog="roughcontact analyse")
     command.add_arguments(parser)

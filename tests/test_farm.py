@@ -38,14 +38,6 @@ def quiet(*args, **kwargs):
     pass
 
 
-@pytest.fixture
-def shared_dir(tmp_path, comm):
-    """Rank 0's directory on every rank: rank 0 writes the files, every rank checks them."""
-    from pathlib import Path
-
-    return Path(comm.bcast(str(tmp_path), root=0))
-
-
 def open_group(path, group=None):
     with xr.open_dataset(path, engine="h5netcdf", group=group) as ds:
         return ds.load()

@@ -27,7 +27,7 @@ from roughcontact.errors import InputError
 from roughcontact.farm import load_study, run_study
 from roughcontact.farm.task import open_normal_solver
 from roughcontact.tangential import UncoupledApproximationWarning, fretting_cycle
-from test_farm import open_group, quiet, shared_dir  # noqa: F401  (shared_dir is a fixture)
+from test_farm import open_group, quiet
 
 STUDY = Path(__file__).resolve().parent.parent / "studies" / "fretting_map.toml"
 
@@ -88,7 +88,8 @@ def test_fretting_map_study_through_the_farm(comm, shared_dir):
                         continue
                     for amplitude in fretting.amplitudes:
                         cycle = fretting_cycle(solver.problem, normal, fretting.friction,
-                                               amplitude * fretting.friction * load, 4, method=task.normal.method)
+                                               amplitude * fretting.friction * normal.load, 4,
+                                               method=task.normal.method)
                         got = float(maps["dissipated_per_cycle"].isel(where).sel(normal_load=load,
                                                                                  amplitude=amplitude))
                         reference = cycle.dissipated_per_cycle

@@ -21,12 +21,6 @@ TINY = {
 ROOT = Path(__file__).resolve().parents[1]
 
 
-@pytest.fixture
-def shared_dir(tmp_path, comm):
-    """One directory for all ranks (rank 0's), since rank 0 writes the files."""
-    return Path(comm.bcast(str(tmp_path), root=0))
-
-
 def test_single_surface_study_is_a_one_task_ensemble(comm, shared_dir):
     """A study without axes is one task: its dataset has no study dimension, loads are the
     ``normal_load`` coordinate, and the fields, attributes and figure are there."""

@@ -71,7 +71,8 @@ def run_study(study: Study, comm, output: str | Path, log: Callable = print, qui
     grid, footprint = on_root(comm, _sizes, pending)
     if pending:
         check_operator_memory(study, footprint, comm, k)
-        on_root(comm, lambda: pending[0].topography() and None)   # bad surface arguments, before any solve
+        if pending[0].surface["generator"] != "file":     # measured surfaces: read whole by task_size
+            on_root(comm, lambda: pending[0].topography() and None)   # bad surface arguments, before any solve
     crowded = oversubscription(comm)
     if crowded and rank == 0:
         print(f"roughcontact: warning: {crowded}", file=sys.stderr)

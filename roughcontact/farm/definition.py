@@ -270,13 +270,11 @@ def _fretting(table: dict, loads: tuple[float, ...], load_dim: str,
         raise InputError("fretting.friction", "is required (the Coulomb coefficient f) unless [tangential] gives it")
     if "amplitudes" not in table:
         raise InputError("fretting.amplitudes", "is required (Q*/(fP) of each cycle, increasing, in (0, 1))")
-    amplitudes = [schema.number("fretting.amplitudes", a, positive=True)
-                  for a in schema.array("fretting.amplitudes", table["amplitudes"])]
-    if max(amplitudes) >= 1.0:
-        raise InputError("fretting.amplitudes", f"are Q*/(fP) and must lie in (0, 1), got {amplitudes!r}")
-    if any(b <= a for a, b in zip(amplitudes, amplitudes[1:])):
-        raise InputError("fretting.amplitudes", f"must be strictly increasing (the amplitude is stepped up), "
-                                                f"got {amplitudes!r}")
+    from ..tangential.fretting_map import check_amplitudes
+
+    amplitudes = check_amplitudes([schema.number("fretting.amplitudes", a, positive=True)
+                                   for a in schema.array("fretting.amplitudes", table["amplitudes"])],
+                                  name="fretting.amplitudes").tolist()
     steps = schema.integer("fretting.steps", table.get("steps", 8), minimum=1)
     return FrettingOptions(friction, tuple(amplitudes), steps, _at(table, "fretting", loads, load_dim))
 

@@ -103,8 +103,8 @@ def main(argv: list[str] | None = None) -> int:
         add(sub)
     args = parser.parse_args(own)
 
-    from mpi4py import MPI       # first: MPI with threads (the farm's executor runs a manager thread)
     import petsc4py
+    from mpi4py import MPI  # first: MPI with threads (the farm's executor runs a manager thread)
 
     petsc4py.init([sys.argv[0]] + petsc)
 

@@ -41,25 +41,3 @@ class ConvergenceError(RoughContactError, RuntimeError):
     def __init__(self, reason: str, message: str):
         self.reason = reason
         super().__init__(f"{reason}: {message}")
-
-
-def require_finite(name: str, value) -> float:
-    """Return ``float(value)`` or raise :class:`InputError` if not a finite number."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(name, f"must be a number, got {value!r}") from None
-    if v != v or v in (float("inf"), float("-inf")):
-        raise InputError(name, f"must be finite, got {value!r}")
-    return v
-
-
-def require_finite_positive(name: str, value: float) -> float:
-    """Return ``float(value)`` or raise :class:`InputError` if not finite and > 0."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(name, f"must be a number, got {value!r}") from None
-    if not (v > 0.0) or v == float("inf"):
-        raise InputError(name, f"must be finite and > 0, got {value!r}")
-    return v

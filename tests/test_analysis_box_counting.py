@@ -14,8 +14,14 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from roughcontact.analysis import (box_counting, contact_dimension, contact_renormalisation, ensemble_statistics,
-                                   renormalisation, size_effect)
+from roughcontact.analysis import (
+    box_counting,
+    contact_dimension,
+    contact_renormalisation,
+    ensemble_statistics,
+    renormalisation,
+    size_effect,
+)
 from roughcontact.errors import InputError
 
 CARPET = np.log(8.0) / np.log(3.0)

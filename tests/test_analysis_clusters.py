@@ -12,10 +12,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import xarray as xr
-from conftest import sphere_heights
 
 from roughcontact.analysis import cluster_statistics, contact_clusters
 from roughcontact.errors import InputError
+
+from conftest import sphere_heights
 
 KAPPA = (np.pi - 1.0 + np.log(2.0)) / 24.0
 S = 1e-4

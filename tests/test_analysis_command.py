@@ -17,8 +17,9 @@ import xarray as xr
 
 from roughcontact.analysis import box_counting, command, hyperbola
 from roughcontact.analysis.petsc import footprint_bulk_compliance
-from roughcontact.datasets import normal_sweep_dataset, write_netcdf
+from roughcontact.datasets import normal_sweep_dataset
 from roughcontact.materials import Interface, Material
+from roughcontact.netcdf import write_netcdf
 from roughcontact.normal import NormalProblem, solve_loads
 from roughcontact.surfaces import disc, midpoint_surface
 

@@ -5,16 +5,23 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import xarray as xr
-from conftest import sphere_heights
 
-from roughcontact.analysis import (area_resolution_fit, contact_area_resolution, energy_power_law,
-                                   frictional_energy_scaling, slip_area_linearity, slip_line)
+from roughcontact.analysis import (
+    area_resolution_fit,
+    contact_area_resolution,
+    energy_power_law,
+    frictional_energy_scaling,
+    slip_area_linearity,
+    slip_line,
+)
 from roughcontact.analysis.petsc import solve_resolutions
 from roughcontact.errors import InputError
 from roughcontact.materials import Interface, Material
 from roughcontact.normal import ActiveSetSolver, NormalProblem
 from roughcontact.references import hertz
 from roughcontact.surfaces import Topography, midpoint_surface
+
+from conftest import sphere_heights
 
 INTERFACE = Interface(Material(20e9, 0.2), Material(20e9, 0.2))
 EXACT = Interface(Material(20e9, 0.0), Material(20e9, 0.0))     # β = γ = 0: the Cattaneo analogy is exact

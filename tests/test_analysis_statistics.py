@@ -10,8 +10,16 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from roughcontact.analysis import (as_dataset, contact_dimension, ensemble_statistics, force_statistics, line_fit,
-                                   map_samples, power_law_fit, standard_names)
+from roughcontact.analysis import (
+    as_dataset,
+    contact_dimension,
+    ensemble_statistics,
+    force_statistics,
+    line_fit,
+    map_samples,
+    power_law_fit,
+    standard_names,
+)
 from roughcontact.errors import InputError
 
 T_975_3 = 3.182446305284263    # Student t, 97.5 % quantile, 3 degrees of freedom (tables)

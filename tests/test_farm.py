@@ -236,8 +236,8 @@ def test_task_files_read_back_as_written(comm):
     shift larger than the surface leaves no overlap)."""
     import io
 
-    from roughcontact.datasets import netcdf_attrs
     from roughcontact.farm.records import encode
+    from roughcontact.netcdf import netcdf_attrs
 
     study = load_study(tiny(name="files", axes={"mate_shift": [[1e-4, 0.0], [5e-3, 0.0]]},
                             surface={"generator": "midpoint", "levels": 4, "spacing": 1e-4, "rms_height": 1e-5,
@@ -279,17 +279,18 @@ def test_task_file_larger_than_the_study_is_refused_by_name(tmp_path):
 def test_ensemble_statistics_are_student_t_intervals_over_seeds():
     """Mean, sample standard deviation and the 95 % Student-t interval of the mean over seeds,
     against numpy and scipy.stats.t.interval on each column (to 1e-12: the same formulas
-    evaluated differently); NaN (a failed task) leaves its sample out; fields and integers
-    are not averaged."""
+    evaluated differently); NaN (a failed task) leaves its sample out; fields and the task status
+    (a CF flag) are not averaged."""
     from scipy import stats
 
-    from roughcontact.farm import ensemble_statistics
+    from roughcontact.analysis import ensemble_statistics
+    from roughcontact.farm.records import STATUS_ATTRS
 
     rng = np.random.default_rng(3)
     values = rng.normal(0.1, 0.02, size=(3, 6, 4))
     values[1, 2, 3] = np.nan
     ds = xr.Dataset({"contact_fraction": (("fractal_dimension", "seed", "normal_load"), values, {"units": "1"}),
-                     "status": (("fractal_dimension", "seed"), np.zeros((3, 6), np.int8)),
+                     "status": (("fractal_dimension", "seed"), np.zeros((3, 6), np.int8), STATUS_ATTRS),
                      "contact": (("seed", "x", "y"), np.zeros((6, 2, 2), np.int8))},
                     coords={"fractal_dimension": [2.1, 2.3, 2.5], "seed": np.arange(1, 7),
                             "normal_load": [1.0, 2.0, 3.0, 4.0]})
@@ -307,5 +308,5 @@ def test_ensemble_statistics_are_student_t_intervals_over_seeds():
             np.testing.assert_allclose(got, [sample.mean(), sample.std(ddof=1), low, high, sample.size],
                                        rtol=1e-12)
     with pytest.raises(InputError) as info:
-        ensemble_statistics(ds, over="realisation")
-    assert info.value.parameter == "over"
+        ensemble_statistics(ds, "realisation")
+    assert info.value.parameter == "dim"

@@ -22,12 +22,12 @@ import numpy as np
 import pytest
 import xarray as xr
 from mpi4py import MPI
+from test_farm import open_group, quiet
 
 from roughcontact.errors import InputError
 from roughcontact.farm import load_study, run_study
 from roughcontact.farm.task import open_normal_solver
 from roughcontact.tangential import UncoupledApproximationWarning, fretting_cycle
-from test_farm import open_group, quiet
 
 STUDY = Path(__file__).resolve().parent.parent / "studies" / "fretting_map.toml"
 

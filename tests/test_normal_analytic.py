@@ -10,11 +10,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from conftest import sphere_heights
 from roughcontact.materials import Interface, Material
 from roughcontact.normal import ActiveSetSolver, NormalProblem, solve_closures
 from roughcontact.references import flat_punch, hertz
 from roughcontact.surfaces import Topography, disc
+
+from conftest import sphere_heights
 
 STEEL_LIKE = Interface(Material(200e9, 0.3))     # on a rigid flat
 RADIUS = 0.01                                    # sphere radius R (m)

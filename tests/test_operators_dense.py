@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from roughcontact.operators.kernel import influence_rows, punch_kernel
 from roughcontact.materials import Interface, Material
+from roughcontact.operators.kernel import influence_rows, punch_kernel
 from roughcontact.surfaces import disc
 
 

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from roughcontact.errors import InputError
-from roughcontact.surfaces import Topography, disc, read_topography, rms_slope, write_netcdf
+from roughcontact.surfaces import Topography, disc, read_topography, rms_slope, write_topography
 
 
 def data_dir() -> Path:
@@ -95,7 +95,7 @@ def test_netcdf_round_trip_keeps_heights_spacing_footprint(tmp_path):
     footprint = disc((20, 20), 1e-4, 1.5e-3)
     h[~footprint] = np.nan
     original = Topography(h, 1e-4, footprint, {"specimen": "sandstone", "shift": (1e-3, 0.0)})
-    write_netcdf(original, tmp_path / "t.nc")
+    write_topography(original, tmp_path / "t.nc")
     t = read_topography(tmp_path / "t.nc")
     assert t.spacing == original.spacing
     assert np.array_equal(t.footprint, footprint)
@@ -200,7 +200,7 @@ def test_unreadable_and_truncated_native_files(tmp_path):
     (tmp_path / "cut.npy").write_bytes(data[: len(data) // 2])
     (tmp_path / "junk.txt").write_text("height map\n1 2 three\n")
     (tmp_path / "empty.txt").write_text("# nothing\n")
-    write_netcdf(Topography(np.zeros((30, 30)), 1.0), tmp_path / "ok.nc")
+    write_topography(Topography(np.zeros((30, 30)), 1.0), tmp_path / "ok.nc")
     nc = (tmp_path / "ok.nc").read_bytes()
     (tmp_path / "cut.nc").write_bytes(nc[: len(nc) // 3])
     np.save(tmp_path / "line.npy", np.zeros(10))

@@ -17,12 +17,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from conftest import sphere_heights
 from roughcontact.materials import Interface, Material
 from roughcontact.normal import ActiveSetSolver, NormalProblem
 from roughcontact.references import cattaneo_mindlin, flat_punch, hertz
 from roughcontact.surfaces import Topography, disc
 from roughcontact.tangential import fretting_cycle, tangential_sweep
+
+from conftest import sphere_heights
 
 EXACT = Interface(Material(200e9, 0.0), Material(200e9, 0.0))   # β = 0, γ = 0
 RADIUS = 0.01          # sphere radius R (m)

@@ -28,15 +28,16 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from conftest import sphere_heights
 from roughcontact.errors import ConvergenceError, InputError
 from roughcontact.materials import Interface, Material
 from roughcontact.normal import ActiveSetSolver, NormalProblem
 from roughcontact.operators.shear import ShearConvolution, shear_kernels, signed_offsets
 from roughcontact.references import cattaneo_mindlin
 from roughcontact.surfaces import Topography, midpoint_surface
-from roughcontact.tangential import UncoupledApproximationWarning, tangential_sweep
-from roughcontact.tangential.coupled import (CoupledSettings, CoupledTangentialSolver, coupled_sweep)
+from roughcontact.tangential import UncoupledApproximationWarning, tangential_dataset, tangential_sweep
+from roughcontact.tangential.coupled import CoupledSettings, CoupledTangentialSolver, coupled_sweep
+
+from conftest import sphere_heights
 
 RADIUS = 0.01          # sphere radius R (m)
 A0 = 50e-6             # Hertz contact radius a (m)
@@ -353,4 +354,4 @@ def test_sweep_reads_as_a_tangential_sweep(hertz_sweeps):
     q, d = coupled.tangential, coupled.approach
     assert coupled.work[-1] == pytest.approx(float(np.sum(0.5 * (q[1:] + q[:-1]) * np.diff(d))), rel=1e-12)
     with pytest.raises(InputError, match="dataset"):
-        coupled.dataset()
+        tangential_dataset(coupled)

@@ -14,7 +14,6 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from conftest import sphere_heights
 from roughcontact.errors import InputError
 from roughcontact.materials import Interface, Material
 from roughcontact.normal import ActiveSetSolver, NormalProblem
@@ -23,6 +22,8 @@ from roughcontact.surfaces import Topography, midpoint_surface
 from roughcontact.tangential import fretting_cycle
 from roughcontact.tangential.coupled import CoupledTangentialSolver
 from roughcontact.tangential.history import tangential_history
+
+from conftest import sphere_heights
 
 EXACT = Interface(Material(200e9, 0.0), Material(200e9, 0.0))    # β = γ = 0
 RADIUS, A0, FRICTION = 0.01, 50e-6, 0.5

@@ -6,12 +6,13 @@ from contextlib import contextmanager
 import numpy as np
 import pytest
 
-from conftest import sphere_heights
 from roughcontact.errors import InputError
 from roughcontact.materials import Interface, Material
 from roughcontact.normal import ActiveSetSolver, NormalProblem
 from roughcontact.surfaces import Topography
 from roughcontact.tangential import CattaneoSolver, fretting_cycle, fretting_map, tangential_sweep
+
+from conftest import sphere_heights
 
 EXACT = Interface(Material(200e9, 0.0), Material(200e9, 0.0))
 

@@ -18,12 +18,19 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from roughcontact.datasets import write_netcdf
 from roughcontact.materials import Interface, Material
+from roughcontact.netcdf import write_netcdf
 from roughcontact.normal import ActiveSetSolver, NormalProblem
 from roughcontact.surfaces import midpoint_surface
-from roughcontact.tangential import (CattaneoSolver, UncoupledApproximationWarning, fretting_cycle,
-                                     incipient_sliding_energy, tangential_sweep)
+from roughcontact.tangential import (
+    CattaneoSolver,
+    UncoupledApproximationWarning,
+    fretting_cycle,
+    fretting_dataset,
+    incipient_sliding_energy,
+    tangential_dataset,
+    tangential_sweep,
+)
 from roughcontact.tangential import model as cattaneo_model_module
 
 EXACT = Interface(Material(20e9, 0.0), Material(20e9, 0.0))
@@ -195,7 +202,7 @@ def test_fretting_loop_area_is_the_dissipated_energy(rough):
     n = len(cycle.loading.states)
     assert np.allclose(cycle.traction(2 * n - 1), -cycle.turning_point.traction, rtol=0.0,
                        atol=1e-9 * FRICTION * normal.force.max())
-    ds = cycle.dataset()
+    ds = fretting_dataset(cycle)
     assert ds.attrs["loop_area"] == cycle.loop_area and ds["Q"].attrs["units"] == "N"
 
 
@@ -223,7 +230,7 @@ def test_direction_rotates_the_vectors_only(rough, sweep20):
 def test_dataset_for_the_figures(comm, rough, sweep20, tmp_path_factory):
     """Figs. 9–12 read from the dataset: Q and Q/fP coordinates, CF units, exactness label; NetCDF round trip."""
     _, normal = rough
-    ds = sweep20.dataset()
+    ds = tangential_dataset(sweep20)
     assert ds.sizes["Q"] == 21
     assert ds["Q_over_fP"].values[-1] == pytest.approx(1.0)
     for name in ("stick_area", "slip_area", "stick_force", "slip_force", "centroid_x", "slip_centroid_y",
@@ -255,5 +262,5 @@ def test_uncoupled_approximation_is_labelled_and_warned_once(comm, monkeypatch):
         second = tangential_sweep(problem, normal, FRICTION, steps=2, method="ksp")
     problem.destroy()
     assert first.model == second.model == "uncoupled approximation"
-    assert first.dataset(fields=False).attrs["cattaneo_model"] == "uncoupled approximation"
+    assert tangential_dataset(first, fields=False).attrs["cattaneo_model"] == "uncoupled approximation"
     assert all(s.model == "uncoupled approximation" for s in first.states)

@@ -4,7 +4,7 @@ References, none produced by the code under test:
 
 - the discrete Cattaneo theorem is exact for β = γ = 0 (§4.1): the bound is 0;
 - the table of measured values (``roughcontact/tangential/uncoupled_error_table.py``,
-  written by ``scripts/chart_uncoupled_error.py --table``): at a charted ν and
+  written by ``tools/chart_uncoupled_error.py --table``): at a charted ν and
   Q/fP the attribute is that entry;
 - a coupled solve (:mod:`roughcontact.tangential.coupled`) on a Hertz contact
   coarser than the charted one (a/s ≈ 13 against 27): the actual error of the
@@ -20,15 +20,22 @@ import warnings
 import numpy as np
 import pytest
 
-from conftest import sphere_heights
 from roughcontact.errors import InputError
 from roughcontact.materials import Interface, Material
 from roughcontact.normal import ActiveSetSolver, NormalProblem
 from roughcontact.surfaces import Topography
-from roughcontact.tangential import UncoupledApproximationWarning, fretting_cycle, tangential_sweep
+from roughcontact.tangential import (
+    UncoupledApproximationWarning,
+    fretting_cycle,
+    fretting_dataset,
+    tangential_dataset,
+    tangential_sweep,
+)
 from roughcontact.tangential import uncoupled_error_table as measured
 from roughcontact.tangential.coupled import coupled_sweep
 from roughcontact.tangential.uncoupled_error import OUTSIDE, uncoupled_error_bound
+
+from conftest import sphere_heights
 
 RADIUS, A0, FRICTION = 0.01, 50e-6, 0.5
 CHARTED_RATIOS = np.arange(1, 10) / 10          # Q = k fP / 10, k = 1 … 9
@@ -58,7 +65,7 @@ def test_exact_model_carries_zero_bound(comm):
     """ν = 0 on both bodies: β = γ = 0, the theorem is exact, every bound is 0."""
     problem, normal = hertz(comm, identical(0.0), n=17)
     try:
-        attrs = quiet_sweep(problem, normal, steps=10).dataset(fields=False).attrs
+        attrs = tangential_dataset(quiet_sweep(problem, normal, steps=10), fields=False).attrs
     finally:
         problem.destroy()
     assert attrs["cattaneo_model"] == "exact"
@@ -95,9 +102,9 @@ def test_outside_the_charted_range_says_so(comm):
         cycle = fretting_cycle(problem, normal, FRICTION, 0.5 * FRICTION * normal.load, 4, method="ksp")
     finally:
         problem.destroy()
-    assert sweep.dataset(fields=False).attrs["uncoupled_error_approach"] == OUTSIDE
+    assert tangential_dataset(sweep, fields=False).attrs["uncoupled_error_approach"] == OUTSIDE
     # reversals (the fretting cycle) are outside the chart whatever the materials
-    assert cycle.dataset().attrs["uncoupled_error_frictional_energy"] == OUTSIDE
+    assert fretting_dataset(cycle).attrs["uncoupled_error_frictional_energy"] == OUTSIDE
 
 
 def test_bound_holds_against_a_coupled_solve(comm):
@@ -115,7 +122,7 @@ def test_bound_holds_against_a_coupled_solve(comm):
         coupled = coupled_sweep(problem, normal, FRICTION, steps=10)
     finally:
         problem.destroy()
-    attrs = uncoupled.dataset(fields=False).attrs
+    attrs = tangential_dataset(uncoupled, fields=False).attrs
     assert attrs["cattaneo_model"] == "uncoupled approximation"
     gamma = nu / (1 - nu)
     assert attrs["composite_poisson_gamma"] == pytest.approx(gamma, rel=1e-12)

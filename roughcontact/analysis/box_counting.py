@@ -27,7 +27,7 @@ from ..errors import InputError
 from .boxes import box_coords, box_nodes, box_sums, crop, fitted_boxes
 from .ensemble import map_samples
 from .fitting import CONFIDENCE, fit_variables, power_law_fit
-from .inputs import GRID, LOAD, as_dataset, contact_set, field, grid_spacing
+from .inputs import GRID, LOAD, as_dataset, contact_set, grid_spacing
 
 
 def box_counts(mask: np.ndarray, base: int = 2) -> tuple[np.ndarray, np.ndarray]:

@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..checks import check_integer
 from ..errors import InputError
-from ..surfaces._checks import check_integer
 
 
 def window_side(shape: tuple[int, ...], base: int = 2) -> int:

@@ -26,8 +26,8 @@ import numpy as np
 import xarray as xr
 from scipy import ndimage
 
+from ..checks import check_choice
 from ..errors import InputError
-from ..surfaces._checks import check_choice
 from .ensemble import map_samples
 from .inputs import GRID, LOAD, as_dataset, contact_set, field, grid_spacing
 

@@ -50,7 +50,7 @@ def analyse_file(result: str | Path, comm, output: str | Path | None = None,
                  footprint_diameter: float | None = None, load_dim: str | None = None,
                  draw_figures: bool = True, log=print) -> dict[str, object]:
     """Analyse one results file on ``comm``; returns the paths written (identical on every rank)."""
-    from ..datasets import write_netcdf
+    from ..netcdf import write_netcdf
     from ..surfaces.footprint import disc
     from .inputs import LOAD, grid_spacing
     from .report import analyse, draw

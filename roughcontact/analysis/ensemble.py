@@ -1,11 +1,13 @@
-"""Run a measure on every sample of an ensemble, then average over seeds with a confidence interval.
+"""Run a measure on every sample of an ensemble, then average over seeds with spread and confidence interval.
 
 A sample is one field (or one curve) of a dataset: everything but its core
 dimensions ((x, y) for a field, the load for a closure curve) indexes the
 samples, e.g. (``seed``, ``fractal_dimension``, ``normal_load``).
 :func:`map_samples` applies a measure to each sample and puts the results
 back on those dimensions; :func:`ensemble_statistics` then reduces one of
-them (``seed``) to the mean and its Student-t confidence interval.
+them (``seed``) to the mean, the standard deviation and the Student-t
+confidence interval of the mean: one implementation for a study's scalars
+and for the measures of its analysis.
 """
 from __future__ import annotations
 
@@ -76,14 +78,19 @@ def map_samples(function: Callable[..., xr.Dataset], arrays: Sequence[xr.DataArr
 
 
 def ensemble_statistics(ds: xr.Dataset, dim: str = "seed", confidence: float = CONFIDENCE) -> xr.Dataset:
-    """Mean over ``dim`` and its confidence interval, for every variable that varies along it.
+    """Mean over ``dim``, its spread and its confidence interval, for every measure that varies along it.
 
-    For each such variable v: ``v`` (the mean over the defined samples),
-    ``v_lower`` and ``v_upper`` (mean ∓ t(n − 1) s / √n, Student t with the
-    sample standard deviation s of the n defined samples) and ``v_samples``
-    (n). Per-sample fit uncertainties (``_stderr``, ``_lower``, ``_upper``)
-    are dropped: the spread over the ensemble replaces them. Where fewer than
-    two samples are defined the interval is NaN, as its ``comment`` says.
+    For each numeric variable v along ``dim`` (a measure, or a study's scalar
+    such as ``contact_fraction``): ``v`` (the mean over the n defined
+    samples; a failed task's NaN is left out), ``v_std`` (the sample
+    standard deviation s, n − 1 in the denominator), ``v_lower`` and
+    ``v_upper`` (mean ∓ t(n − 1) s / √n, Student t at ``confidence``) and
+    ``v_samples`` (n). Not averaged: fields on the grid (dimensions x, y: each
+    seed is another surface), CF flags (``flag_values``: task status, zone
+    codes) and per-sample fit uncertainties (``_stderr``, ``_lower``,
+    ``_upper``), which the spread over the ensemble replaces. Variables not
+    along ``dim`` are kept as they are. Where fewer than two samples are
+    defined the interval is NaN, as its ``comment`` says.
     """
     confidence = check_confidence(confidence)
     if dim not in ds.dims:
@@ -96,7 +103,8 @@ def ensemble_statistics(ds: xr.Dataset, dim: str = "seed", confidence: float = C
         if dim not in var.dims:
             out[name] = var
             continue
-        if name.endswith(_PER_SAMPLE_UNCERTAINTY) or not np.issubdtype(var.dtype, np.number):
+        if (name.endswith(_PER_SAMPLE_UNCERTAINTY) or not np.issubdtype(var.dtype, np.number)
+                or "flag_values" in var.attrs or {"x", "y"} & set(var.dims)):
             continue
         values = var.astype(float)
         count = values.count(dim)
@@ -108,6 +116,8 @@ def ensemble_statistics(ds: xr.Dataset, dim: str = "seed", confidence: float = C
         units = var.attrs.get("units", "1")
         out[name] = mean.assign_attrs(var.attrs, cell_methods=f"{dim}: mean")
         comment = "NaN where fewer than 2 samples are defined"
+        out[f"{name}_std"] = spread.assign_attrs(units=units, long_name=f"standard deviation of {label} over "
+                                                                      f"{dim} (n − 1)", comment=comment)
         out[f"{name}_lower"] = (mean - half).assign_attrs(
             units=units, long_name=f"{percent} confidence interval of the mean of {label} over {dim}, lower bound",
             comment=comment)

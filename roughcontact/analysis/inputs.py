@@ -16,7 +16,8 @@ from collections.abc import Sequence
 import numpy as np
 import xarray as xr
 
-from ..errors import InputError, require_finite_positive
+from ..checks import require_finite_positive
+from ..errors import InputError
 from ..normal.result import NormalResult
 
 #: dimensions of a field on the grid (axis 0 is x)

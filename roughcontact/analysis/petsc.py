@@ -12,7 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
-from ..errors import InputError, require_finite_positive
+from ..checks import require_finite_positive
+from ..errors import InputError
 from ..materials import Interface
 from ..normal.problem import NormalProblem
 from ..surfaces.topography import Topography

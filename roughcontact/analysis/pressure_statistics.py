@@ -23,8 +23,8 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
+from ..checks import check_integer
 from ..errors import InputError
-from ..surfaces._checks import check_integer
 from .ensemble import map_samples
 from .fitting import CONFIDENCE, fit_variables, power_law_fit, semilog_fit
 from .inputs import GRID, LOAD, as_dataset, contact_set, field

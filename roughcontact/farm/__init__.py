@@ -1,4 +1,4 @@
-"""Parametric studies: study definitions, tasks, the MPI task farm, the result store and statistics.
+"""Parametric studies: study definitions, tasks, the MPI task farm, the result store and resume.
 
 - :mod:`.definition`, :mod:`.axes`, :mod:`.schema`: a study read from TOML, its axes and tasks;
 - :mod:`.task`: one task solved on a communicator (:func:`open_normal_solver` builds each solver);
@@ -6,13 +6,15 @@
 - :mod:`.executor`: groups of ranks, the ``mpi4py.futures`` farm, aborting on unexpected errors;
 - :mod:`.store`, :mod:`.combine`: the task files, resume, and the combined study dataset;
 - :mod:`.guards`, :mod:`.progress`: checks before the first solve, the progress line;
-- :mod:`.run`: all of it in order (``roughcontact run``);
-- :mod:`.statistics`: ensemble mean, spread and confidence intervals over seeds.
+- :mod:`.run`: all of it in order (``roughcontact run``).
+
+Ensemble means, spreads and confidence intervals over seeds are
+:func:`roughcontact.analysis.ensemble_statistics`, for a study's scalars as
+for the measures of its analysis.
 """
 from .definition import DEFAULT_STUDY, Study, load_study
 from .run import RunSummary, run_study
-from .statistics import ensemble_statistics
 from .task import NormalOptions, TangentialOptions, Task, open_normal_solver, solve_task
 
 __all__ = ["DEFAULT_STUDY", "NormalOptions", "RunSummary", "Study", "TangentialOptions", "Task",
-           "ensemble_statistics", "load_study", "open_normal_solver", "run_study", "solve_task"]
+           "load_study", "open_normal_solver", "run_study", "solve_task"]

@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError, require_finite_positive
-from ..surfaces._checks import check_fractal_dimension, check_integer, check_seed, check_vector
+from ..checks import check_fractal_dimension, check_integer, check_seed, check_vector, require_finite_positive
+from ..errors import InputError
 from . import schema
 
 #: the dimension an axis names in the datasets, when it differs from its key

@@ -36,17 +36,18 @@ import hashlib
 import inspect
 import json
 import re
-import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import tomllib
 
+from ..checks import check_choice
 from ..datasets import check_fields
 from ..errors import InputError
-from ..surfaces._checks import check_choice
 from ..materials import Interface, Material
+from ..tangential.checks import check_amplitudes
 from . import schema
 from .axes import Dimension, check_value, parse_axes, positions
 from .task import FrettingOptions, Loading, NormalOptions, TangentialOptions, Task, generators
@@ -232,9 +233,8 @@ def _tangential(table: dict, loads: tuple[float, ...], load_dim: str) -> Tangent
     indices = _at(table, "tangential", loads, load_dim)
     amplitude = table.get("fretting_amplitude")
     if amplitude is not None:
-        amplitude = schema.number("tangential.fretting_amplitude", amplitude, positive=True)
-        if amplitude >= 1.0:
-            raise InputError("tangential.fretting_amplitude", f"is Q*/(fP) and must lie in (0, 1), got {amplitude!r}")
+        amplitude = float(check_amplitudes([schema.number("tangential.fretting_amplitude", amplitude, positive=True)],
+                                           name="tangential.fretting_amplitude")[0])
     fretting_steps = schema.integer("tangential.fretting_steps", table.get("fretting_steps", steps), minimum=1)
     return TangentialOptions(friction, steps, indices, amplitude, fretting_steps)
 
@@ -270,8 +270,6 @@ def _fretting(table: dict, loads: tuple[float, ...], load_dim: str,
         raise InputError("fretting.friction", "is required (the Coulomb coefficient f) unless [tangential] gives it")
     if "amplitudes" not in table:
         raise InputError("fretting.amplitudes", "is required (Q*/(fP) of each cycle, increasing, in (0, 1))")
-    from ..tangential.fretting_map import check_amplitudes
-
     amplitudes = check_amplitudes([schema.number("fretting.amplitudes", a, positive=True)
                                    for a in schema.array("fretting.amplitudes", table["amplitudes"])],
                                   name="fretting.amplitudes").tolist()

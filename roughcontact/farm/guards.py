@@ -54,8 +54,8 @@ def task_size(task) -> tuple[int, int]:
     """
     import numpy as np
 
+    from ..checks import check_shape
     from ..surfaces import disc
-    from ..surfaces._checks import check_shape
 
     spec = task.surface
     if spec["generator"] == "file":

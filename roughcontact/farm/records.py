@@ -17,13 +17,12 @@ written and read by :mod:`.netcdf`.
 """
 from __future__ import annotations
 
-
 import numpy as np
 import xarray as xr
 
 from .. import __version__
 from ..datasets import normal_sweep_dataset, stored_fields
-from ..tangential.dataset import fretting_dataset, tangential_dataset
+from ..tangential.dataset import fretting_dataset, fretting_map_dataset, tangential_dataset
 from .task import TaskOutcome
 
 #: the load coordinate of each way of giving loads (CF attributes)
@@ -152,7 +151,7 @@ def _cycle_dataset(outcome: TaskOutcome, index: int) -> xr.Dataset:
 
 
 def _map_dataset(outcome: TaskOutcome, index: int) -> xr.Dataset:
-    ds = outcome.fretting_maps[index].dataset()
+    ds = fretting_map_dataset(outcome.fretting_maps[index])
     ds.attrs = _model_attrs(ds.attrs)
     return ds
 

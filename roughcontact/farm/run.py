@@ -72,7 +72,7 @@ def run_study(study: Study, comm, output: str | Path, log: Callable = print, qui
     if pending:
         check_operator_memory(study, footprint, comm, k)
         if pending[0].surface["generator"] != "file":     # measured surfaces: read whole by task_size
-            on_root(comm, lambda: pending[0].topography() and None)   # bad surface arguments, before any solve
+            on_root(comm, _build_surface, pending[0])
     crowded = oversubscription(comm)
     if crowded and rank == 0:
         print(f"roughcontact: warning: {crowded}", file=sys.stderr)
@@ -105,6 +105,13 @@ def run_study(study: Study, comm, output: str | Path, log: Callable = print, qui
     return summary
 
 
+
+def _build_surface(task) -> None:
+    """Build a task's surface once and drop it: bad generator arguments (a generated surface is
+    only sized, not built, before this) are an InputError before any solve."""
+    task.topography()
+
+
 def _resume(store: TaskStore, study: Study, retry_failed: bool) -> set[int]:
     """Check the output is writable and holds no other study; the tasks already done."""
     store.check_writable()
@@ -119,8 +126,8 @@ def _sizes(tasks: list) -> tuple[int, int]:
 
 
 def _finish(study: Study, store: TaskStore, attrs: dict, tasks: list) -> dict:
-    from ..plots import contact_area_vs_load
-    from .statistics import ensemble_statistics
+    from ..analysis.ensemble import ensemble_statistics
+    from ..analysis.figures import contact_area_vs_load
 
     groups = combine(study, {t.index: store.path(t.index) for t in tasks})
     root = groups["/"]
@@ -134,7 +141,7 @@ def _finish(study: Study, store: TaskStore, attrs: dict, tasks: list) -> dict:
     root.attrs = {**attrs, **{k: v for k, v in root.attrs.items() if k.startswith(kept)}}
     paths = {"netcdf": write_combined(groups, store.combined), "failed": failed, "warned": warned}
     if "contact_fraction" in root and root["contact_fraction"].notnull().any():
-        shown = ensemble_statistics(root) if root.sizes.get("seed", 1) > 1 else root
+        shown = ensemble_statistics(root[["contact_fraction"]], "seed") if root.sizes.get("seed", 1) > 1 else root
         grid = f", {root.sizes['x']} × {root.sizes['y']} nodes" if "x" in root.sizes else ""
         paths["figure"] = contact_area_vs_load(
             shown, store.output / f"{study.name}_area_vs_load.png",

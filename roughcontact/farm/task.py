@@ -18,11 +18,11 @@ from typing import Any
 
 import numpy as np
 
+from ..checks import check_choice
 from ..errors import RoughContactError
 from ..materials import Interface
-from ..normal.solver import METHODS as _NORMAL_METHODS
+from ..normal.choice import METHODS as _NORMAL_METHODS
 from ..operators.memory import KINDS
-from ..surfaces._checks import check_choice
 from ..surfaces.topography import Topography
 
 #: flexibility operators a study's ``normal.operator`` may name (built in :func:`open_normal_solver`;
@@ -204,7 +204,7 @@ def solve_task(task: Task, comm) -> TaskOutcome:
     outcome keeps what was solved before it and the message. Warnings are
     recorded with the outcome, not printed.
     """
-    from ..tangential import fretting_cycle, fretting_map, incipient_sliding_energy, tangential_sweep
+    from ..tangential import fretting_cycle, fretting_map, incipient_sliding_energy, tangential_loads, tangential_sweep
 
     t0 = time.perf_counter()
     outcome = TaskOutcome(task=task, ranks=comm.Get_size())
@@ -231,8 +231,8 @@ def solve_task(task: Task, comm) -> TaskOutcome:
                         incipient_sliding_energy(problem, normal, f) if load > 0.0 else 0.0)
                     if i not in tangential.at:
                         continue
-                    q = f * load * np.arange(tangential.steps) / tangential.steps
-                    outcome.sweeps[i] = tangential_sweep(problem, normal, f, tangential=q,
+                    outcome.sweeps[i] = tangential_sweep(problem, normal, f,
+                                                         tangential=tangential_loads(f, load, tangential.steps),
                                                          method=task.normal.method)
                     if tangential.fretting_amplitude is not None:
                         outcome.cycles[i] = fretting_cycle(

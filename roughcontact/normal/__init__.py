@@ -1,8 +1,11 @@
 """Normal contact of a composite topography against an elastic half-space (§2–§3.1)."""
-from .active_set import ActiveSetSettings, ActiveSetSolver, solve_closures, solve_loads
+from .active_set import ActiveSetSettings, ActiveSetSolver
+from .choice import METHODS
+from .constrained_cg import CGSettings, ConstrainedCGSolver
+from .factory import make_solver, solve_closures, solve_loads
 from .problem import NormalProblem
 from .result import NormalResult
-from .solver import METHODS, NormalSolver, make_solver
+from .solver import NormalSolver
 
-__all__ = ["ActiveSetSettings", "ActiveSetSolver", "METHODS", "NormalProblem", "NormalResult",
-           "NormalSolver", "make_solver", "solve_closures", "solve_loads"]
+__all__ = ["ActiveSetSettings", "ActiveSetSolver", "CGSettings", "ConstrainedCGSolver", "METHODS",
+           "NormalProblem", "NormalResult", "NormalSolver", "make_solver", "solve_closures", "solve_loads"]

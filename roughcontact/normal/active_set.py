@@ -29,9 +29,9 @@ import numpy as np
 
 from ..errors import ConvergenceError, InputError
 from .problem import NormalProblem
-from .result import NormalResult
+from .result import ContactState
 from .rigid_motion import newton_on_motion
-from .solver import ContactState, NormalSolver, make_solver
+from .solver import NormalSolver
 
 
 @dataclass(frozen=True)
@@ -98,6 +98,9 @@ class ActiveSetSolver(NormalSolver):
     prefix
         PETSc options prefix, default ``"normal_"``.
     """
+
+    #: the keyword options :func:`~.factory.make_solver` passes on
+    OPTIONS = ("settings", "rtol", "options", "prefix")
 
     def __init__(self, problem: NormalProblem, method: str = "ksp",
                  settings: ActiveSetSettings = ActiveSetSettings(), rtol: float | None = None,
@@ -232,29 +235,3 @@ class ActiveSetSolver(NormalSolver):
     def _set_key(self, active: np.ndarray) -> bytes:
         digest = hashlib.sha1(np.packbits(active).tobytes()).digest()
         return b"".join(self.problem.comm.allgather(digest))
-
-def _increasing(name: str, values) -> np.ndarray:
-    arr = np.asarray(values, dtype=float).ravel()
-    if arr.size == 0:
-        raise InputError(name, "is empty")
-    if not np.all(np.isfinite(arr)):
-        raise InputError(name, "must be finite")
-    if np.any(np.diff(arr) < 0):
-        raise InputError(name, "must be increasing (each increment is warm-started from the last)")
-    return arr
-
-
-def solve_closures(problem: NormalProblem, closures, rotation=(0.0, 0.0), method: str = "ksp",
-                   **kwargs) -> list[NormalResult]:
-    """Displacement control over increasing closures δz, each warm-started (§3.1)."""
-    closures = _increasing("closures", closures)
-    with make_solver(problem, method, **kwargs) as solver:
-        return [solver.solve_closure(c, rotation) for c in closures]
-
-
-def solve_loads(problem: NormalProblem, loads, moments=(0.0, 0.0), rotation=None,
-                method: str = "ksp", **kwargs) -> list[NormalResult]:
-    """Load control over increasing loads P (same moments or fixed rotation), warm-started."""
-    loads = _increasing("loads", loads)
-    with make_solver(problem, method, **kwargs) as solver:
-        return [solver.solve_load(p, moments, rotation) for p in loads]

@@ -3,8 +3,8 @@
 Every operator applies the same Eq. 10 kernel and every method meets the
 same contact conditions to the same tolerance, so the choice is one of cost
 only, and it is recorded with each result (``NormalResult.operator``,
-``.method`` and ``.choice``). Measured on one rank (scripts/bench_crossover.py,
-scripts/bench_normal_large.py; see docs/solvers.md):
+``.method`` and ``.choice``). Measured on one rank (benchmarks/bench_crossover.py,
+benchmarks/bench_normal_large.py; see docs/solvers.md):
 
 - **operator**: ``"fft-periodic"`` for a surface declared periodic whose
   footprint is the whole grid (one period of a periodic interface); the
@@ -21,13 +21,18 @@ scripts/bench_normal_large.py; see docs/solvers.md):
   faster than the active set from 129² with the rotation fixed, 1.5 to 2
   with it free), and always on ``"fft-periodic"``. ``"gauss-seidel"`` (the
   paper's) is a reference only. The stability map
-  (scripts/bench_stability.py) found no case, 64² to 1024², where the CG
+  (benchmarks/bench_stability.py) found no case, 64² to 1024², where the CG
   or the active set fails.
 """
 from __future__ import annotations
 
 from ..errors import InputError
 from ..operators.memory import KINDS
+
+#: The normal methods: the active set with Krylov or Gauss–Seidel inner solves, the bound-constrained CG.
+METHODS = ("ksp", "gauss-seidel", "cg")
+#: The methods of the active-set solver (they read PETSc options under a prefix).
+ACTIVE_SET_METHODS = ("ksp", "gauss-seidel")
 
 #: Footprint nodes up to which ``operator="auto"`` takes the explicit matrix.
 DENSE_NODES = 65 * 65
@@ -57,8 +62,6 @@ def choose_operator(topography, operator: str = "auto") -> tuple[str, str]:
 def choose_method(operator_kind: str, nodes: int, method: str = "auto") -> tuple[str, str]:
     """(method, why) for ``method`` (``"auto"`` or a method, kept as given) on ``operator_kind``
     over ``nodes`` footprint nodes."""
-    from .solver import METHODS
-
     if method != "auto":
         if method not in METHODS:
             raise InputError("method", f"must be 'auto' or one of {', '.join(METHODS)}, got {method!r}")

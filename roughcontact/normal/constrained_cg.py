@@ -54,8 +54,9 @@ import numpy as np
 from ..errors import ConvergenceError, InputError
 from .nested import COARSE_TOL, NestedStart
 from .problem import NormalProblem
+from .result import ContactState
 from .rigid_motion import newton_on_motion
-from .solver import ContactState, NormalSolver
+from .solver import NormalSolver
 
 PRECONDITIONERS = ("fourier", "none")
 
@@ -80,7 +81,7 @@ class CGSettings:
         the tail of the iteration, where a few boundary nodes flip each time,
         into preconditioned steepest descent; never restarting loses
         conjugacy when S changes a lot. 0.05 took the fewest iterations on
-        self-affine surfaces from 256² to 1024² (scripts/bench_normal_large.py).
+        self-affine surfaces from 256² to 1024² (benchmarks/bench_normal_large.py).
     renew
         Also restart when the free set changed at all since the last restart
         and this many iterations have passed: small changes that each stay
@@ -123,6 +124,9 @@ class ConstrainedCGSolver(NormalSolver):
         Start cold solves from the solution on the grid of spacing 2s
         (:mod:`.nested`), when the grid is fine enough for it to pay off.
     """
+
+    #: the keyword options :func:`~.factory.make_solver` passes on
+    OPTIONS = ("settings", "nested")
 
     def __init__(self, problem: NormalProblem, settings: CGSettings = CGSettings(), nested: bool = True):
         super().__init__(problem)

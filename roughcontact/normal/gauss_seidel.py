@@ -15,8 +15,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import solve_triangular
 
-from ..operators.dense import gather_dense
 from ..errors import ConvergenceError
+from ..operators.dense import gather_dense
 from .subsolver import ContactSetSubsolver
 
 

@@ -18,69 +18,8 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
-from ..errors import ConvergenceError
+from ..petsc import OptionsScope, solve_checked
 from .subsolver import ContactSetSubsolver
-
-_REASONS = {getattr(PETSc.KSP.ConvergedReason, k): k
-            for k in dir(PETSc.KSP.ConvergedReason) if k.isupper()}
-
-
-def ksp_reason_name(reason: int) -> str:
-    """The name of a KSPConvergedReason value, e.g. ``DIVERGED_ITS``."""
-    return _REASONS.get(int(reason), str(int(reason)))
-
-
-def solve_checked(ksp, mat, b, x, r, what: str) -> int:
-    """Solve ``mat`` x = b from the guess in ``x``; a negative converged reason raises.
-
-    A warm start worse than zero (a much smaller load, a receding set) is
-    dropped: CG would otherwise start from a residual far above |b| and may
-    stop on PETSc's divergence test before its first iteration. ``r`` is a
-    work vector; ``what`` names the solve in the error.
-
-    Returns
-    -------
-    int
-        The Krylov iterations.
-
-    Raises
-    ------
-    ConvergenceError
-        Named ``KSP_<reason>`` when the KSP diverged.
-    """
-    mat.mult(x, r)
-    r.aypx(-1.0, b)
-    if r.norm() > b.norm():
-        x.set(0.0)
-    ksp.solve(b, x)
-    reason = ksp.getConvergedReason()
-    its = ksp.getIterationNumber()
-    if reason < 0:
-        prefix = ksp.getOptionsPrefix() or ""
-        raise ConvergenceError(
-            "KSP_" + ksp_reason_name(reason),
-            f"{what} stopped after {its} iterations with residual norm {ksp.getResidualNorm():.3e}; "
-            f"raise -{prefix}ksp_max_it or loosen -{prefix}ksp_rtol")
-    return its
-
-
-class OptionsScope:
-    """Insert options under a prefix for the life of an object, then remove them."""
-
-    def __init__(self, prefix: str, options: dict | None):
-        self.prefix = prefix
-        self.keys = []
-        db = PETSc.Options()
-        for key, value in (options or {}).items():
-            name = prefix + key.lstrip("-")
-            db.setValue(name, "" if value is None else str(value))
-            self.keys.append(name)
-
-    def close(self) -> None:
-        db = PETSc.Options()
-        for name in self.keys:
-            db.delValue(name)
-        self.keys = []
 
 
 class FourierPC:

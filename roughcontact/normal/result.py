@@ -2,8 +2,21 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
+
+
+class ContactState(NamedTuple):
+    """A converged contact state on this rank's nodes, before it becomes a :class:`NormalResult`."""
+
+    pressure: np.ndarray          # nodal forces p̄ (N)
+    active: np.ndarray            # contact set S
+    gap: np.ndarray               # deformed gap (m), 0 on S
+    outer: int                    # outer (active-set / Newton) iterations
+    linear: int                   # inner linear iterations or CG iterations
+    residual: float               # relative complementarity residual
+    history: tuple                # residual history
 
 
 @dataclass(frozen=True)

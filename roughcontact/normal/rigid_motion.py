@@ -30,7 +30,7 @@ import numpy as np
 
 from ..errors import ConvergenceError
 from .problem import NormalProblem
-from .solver import ContactState
+from .result import ContactState
 
 Evaluate = Callable[[np.ndarray], tuple[ContactState, np.ndarray]]
 Stiffness = Callable[[np.ndarray], tuple[np.ndarray, int]]

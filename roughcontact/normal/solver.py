@@ -13,34 +13,19 @@ differ only in how they find the contact state, :meth:`NormalSolver._solve`:
   set inside the iteration and impose the loads as linear constraints
   (:mod:`.constrained_cg`).
 
-:func:`make_solver` builds one by name.
+:func:`~.factory.make_solver` builds one by name.
 """
 from __future__ import annotations
 
 import time
-from typing import NamedTuple
 
 import numpy as np
 
+from ..checks import require_finite as _finite
 from ..collective import Collective
 from ..errors import InputError
-from ..errors import require_finite as _finite
 from .problem import NormalProblem
-from .result import NormalResult
-
-METHODS = ("ksp", "gauss-seidel", "cg")
-
-
-class ContactState(NamedTuple):
-    """A converged contact state on this rank's nodes, before it becomes a :class:`NormalResult`."""
-
-    pressure: np.ndarray          # nodal forces p̄ (N)
-    active: np.ndarray            # contact set S
-    gap: np.ndarray               # deformed gap (m), 0 on S
-    outer: int                    # outer (active-set / Newton) iterations
-    linear: int                   # inner linear iterations or CG iterations
-    residual: float               # relative complementarity residual
-    history: tuple                # residual history
+from .result import ContactState, NormalResult
 
 
 class NormalSolver(Collective):
@@ -193,26 +178,3 @@ def _pair(name: str, value) -> tuple:
     except (TypeError, ValueError):
         raise InputError(name, f"must be a pair (x, y), got {value!r}") from None
     return a, b
-
-
-def make_solver(problem: NormalProblem, method: str = "auto", **options) -> NormalSolver:
-    """A normal solver of ``problem`` by name: ``"auto"`` (:func:`~.choice.choose_method`),
-    ``"ksp"``, ``"gauss-seidel"`` or ``"cg"``.
-
-    ``options`` go to the solver's constructor (settings, tolerances, PETSc
-    options and prefix).
-    """
-    from .choice import choose_method
-
-    problem._check_alive()
-    name, reason = choose_method(problem.operator_kind, problem.size, method)
-    if name in ("ksp", "gauss-seidel"):
-        from .active_set import ActiveSetSolver
-
-        solver = ActiveSetSolver(problem, name, **options)
-    else:
-        from .constrained_cg import ConstrainedCGSolver
-
-        solver = ConstrainedCGSolver(problem, **options)
-    solver.method, solver.method_reason = name, reason
-    return solver

@@ -6,7 +6,7 @@ ending in a numpy ``MemoryError`` or an out-of-memory kill.
 
 The estimate is the high-water resident set of a whole normal solve on the
 busiest rank (problem, operator, solver, result), above what the process
-held before, as measured by ``scripts/bench_normal_large.py``:
+held before, as measured by ``benchmarks/bench_normal_large.py``:
 
 - every kind holds some arrays of all N nodes on every rank: the Eq. 10
   table, node coordinates, the gathered result fields — about

@@ -17,7 +17,7 @@ from .fractal_dimension import (
     fractal_dimension_variogram,
     fractal_dimensions,
 )
-from .io import read_topography, write_netcdf
+from .io import read_topography, write_topography
 from .midpoint import midpoint_surface
 from .multiresolution import coarsen, multiresolution
 from .statistics import RadialPSD, StructureFunction, radial_psd, rms_height, rms_slope, structure_function
@@ -26,7 +26,7 @@ from .topography import Topography
 __all__ = [
     "Topography", "disc", "rectangle",
     "midpoint_surface", "fourier_surface",
-    "read_topography", "write_netcdf", "detrend",
+    "read_topography", "write_topography", "detrend",
     "composite_topography", "mated_composite",
     "coarsen", "multiresolution",
     "rms_height", "rms_slope", "radial_psd", "structure_function", "RadialPSD", "StructureFunction",

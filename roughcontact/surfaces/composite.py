@@ -29,8 +29,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..checks import check_vector
 from ..errors import InputError
-from ._checks import check_vector
 from .interpolation import interpolate_at_indices, snap_to_integers
 from .statistics import valid_nodes
 from .topography import Topography

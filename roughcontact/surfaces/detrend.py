@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._checks import check_choice
+from ..checks import check_choice
 from .statistics import valid_nodes
 from .topography import Topography
 

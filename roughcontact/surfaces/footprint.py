@@ -8,12 +8,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError, require_finite_positive
+from ..checks import check_shape, require_finite_positive
+from ..errors import InputError
 
 
 def rectangle(shape: tuple[int, int]) -> np.ndarray:
     """All nodes of a grid of ``shape`` = (nx, ny)."""
-    nx, ny = _check_shape(shape)
+    nx, ny = check_shape(shape, minimum=1)
     return np.ones((nx, ny), dtype=bool)
 
 
@@ -25,7 +26,7 @@ def disc(shape: tuple[int, int], spacing: float, diameter: float,
     by default the centre of the grid. A node belongs to the disc when its
     distance to the centre is at most ``diameter / 2``.
     """
-    nx, ny = _check_shape(shape)
+    nx, ny = check_shape(shape, minimum=1)
     s = require_finite_positive("spacing", spacing)
     d = require_finite_positive("diameter", diameter)
     if centre is None:
@@ -36,13 +37,3 @@ def disc(shape: tuple[int, int], spacing: float, diameter: float,
     if not mask.any():
         raise InputError("diameter", f"a disc of diameter {d} m holds no node of the grid")
     return mask
-
-
-def _check_shape(shape) -> tuple[int, int]:
-    try:
-        nx, ny = (int(n) for n in shape)
-    except (TypeError, ValueError):
-        raise InputError("shape", f"must be a pair of node counts, got {shape!r}") from None
-    if nx < 1 or ny < 1:
-        raise InputError("shape", f"node counts must be >= 1, got {shape!r}")
-    return nx, ny

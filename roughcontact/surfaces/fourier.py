@@ -30,8 +30,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError, require_finite_positive
-from ._checks import check_seed, check_shape, hurst_exponent
+from ..checks import check_seed, check_shape, hurst_exponent, require_finite_positive
+from ..errors import InputError
 from .statistics import scaled_to_rms
 from .topography import Topography
 

@@ -26,8 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..checks import check_choice, check_scale_range
 from ..errors import InputError
-from ._checks import check_choice, check_scale_range
 from .statistics import radial_psd, structure_function, valid_nodes
 from .topography import Topography
 

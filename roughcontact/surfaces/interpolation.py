@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError, require_finite_positive
+from ..checks import require_finite_positive
+from ..errors import InputError
 
 #: Fractional indices closer than this to an integer are snapped onto it, so
 #: that shifts of whole pixels computed in floating point stay exact.

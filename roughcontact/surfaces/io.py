@@ -6,7 +6,7 @@ ISO 25178 X3P, ...). :func:`read_topography` reads
 
 - natively: NumPy ``.npy`` arrays, plain text (a matrix of heights, or x-y-z
   columns: ``.txt``, ``.csv``, ``.xyz``) and NetCDF (``.nc``: the CF files
-  written by :func:`write_netcdf`, or SurfaceTopography's NetCDF files);
+  written by :func:`write_topography`, or SurfaceTopography's NetCDF files);
 - every other format through SurfaceTopography (Jacobs, Junge, Pastewka et
   al., ContactEngineering; MIT licence), an optional dependency installed with
   ``pip install "roughcontact[topography]"``.
@@ -29,8 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError, require_finite_positive
-from ._checks import check_choice
+from ..checks import check_choice, require_finite_positive
+from ..errors import InputError
 from .detrend import MODES as DETREND_MODES
 from .detrend import _detrended
 from .interpolation import resample_square
@@ -121,7 +121,7 @@ def read_topography(path, *, format: str | None = None, spacing=None, unit: str 
     return _finish(heights, pixel_size, meta, footprint, resample=resample, missing=missing, detrend=detrend)
 
 
-def write_netcdf(topography: Topography, path) -> None:
+def write_topography(topography: Topography, path) -> None:
     """Write a topography as a CF NetCDF-4 file that :func:`read_topography` reads back.
 
     Variables: ``heights(x, y)`` in m, coordinates ``x`` and ``y`` in m,
@@ -132,6 +132,7 @@ def write_netcdf(topography: Topography, path) -> None:
     import xarray as xr
 
     from .. import __version__
+    from ..netcdf import write_netcdf
 
     t = topography
     ds = xr.Dataset(
@@ -143,14 +144,14 @@ def write_netcdf(topography: Topography, path) -> None:
                 "y": ("y", t.y, {"units": "m", "long_name": "y"})},
         attrs={"spacing": t.spacing, "roughcontact_version": __version__,
                "roughcontact_metadata": json.dumps(t.metadata, default=str)})
-    ds.to_netcdf(path, engine="h5netcdf")
+    write_netcdf(ds, path)
 
 
 def _finish(heights: np.ndarray, pixel_size: tuple[float, float], meta: dict[str, Any],
             footprint: np.ndarray | None, *, resample, missing: str, detrend: str | None) -> Topography:
     """SI heights with pixel size (sx, sy) -> Topography on a square grid.
 
-    ``footprint`` (stored by :func:`write_netcdf`) marks the nominal contact
+    ``footprint`` (stored by :func:`write_topography`) marks the nominal contact
     region; undefined points outside it are not missing data.
     """
     heights = np.asarray(heights, dtype=float)
@@ -270,7 +271,7 @@ def _read_netcdf(path: Path, spacing, unit, height_unit):
         written_spacing = ds.attrs.get("spacing")
     if written_spacing is not None and all(
             s is None or abs(s - float(written_spacing)) <= 1e-9 * s for s in steps):
-        # files of write_netcdf: the exact spacing, not the mean of coordinate differences
+        # files of write_topography: the exact spacing, not the mean of coordinate differences
         steps = [float(written_spacing)] * 2
     if all(s is None for s in steps):
         if spacing is None:

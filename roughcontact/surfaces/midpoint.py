@@ -27,8 +27,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError, require_finite_positive
-from ._checks import check_fractal_dimension, check_integer, check_seed
+from ..checks import check_fractal_dimension, check_integer, check_seed, require_finite_positive
+from ..errors import InputError
 from .statistics import scaled_to_rms
 from .topography import Topography
 

@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..checks import check_choice, check_integer
 from ..errors import InputError
-from ._checks import check_choice, check_integer
 from .topography import Topography
 
 METHODS = ("decimate", "average")

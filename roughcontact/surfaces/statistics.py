@@ -24,8 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError, require_finite_positive
-from ._checks import check_choice, check_integer
+from ..checks import check_choice, check_integer, require_finite_positive
+from ..errors import InputError
 from .topography import Topography
 
 

@@ -17,7 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError, require_finite_positive
+from ..checks import require_finite_positive
+from ..errors import InputError
 
 
 @dataclass(frozen=True)

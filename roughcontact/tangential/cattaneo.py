@@ -27,69 +27,21 @@ J.R. Barber, M. Ciavarella, Int. J. Solids Struct. 37 (2000) 29–43
 """
 from __future__ import annotations
 
-import inspect
-import math
 import time
 import warnings
 
 import numpy as np
 
 from ..collective import Collective
-from ..errors import ConvergenceError, InputError, require_finite
+from ..errors import ConvergenceError
 from ..normal.choice import choose_method
-from ..normal.solver import make_solver
+from ..normal.factory import make_solver, solver_class
 from ..normal.problem import NormalProblem
 from ..normal.result import NormalResult
+from .checks import check_direction, check_friction, check_normal, check_tangential, full_sliding
 from .energy import frictional_energy, stored_energy
 from .model import COULOMB_TOLERANCE, CattaneoConsistencyWarning, cattaneo_model
-from .result import TangentialState
-
-
-def check_friction(friction) -> float:
-    """f as a float, or :class:`InputError` unless finite and > 0."""
-    f = require_finite("friction", friction)
-    if f <= 0.0:
-        raise InputError("friction", f"the Coulomb coefficient f must be finite and > 0, got {friction!r}")
-    return f
-
-
-def check_steps(steps) -> int:
-    """N as an int, or :class:`InputError` unless an integer >= 1."""
-    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
-        raise InputError("steps", f"must be an integer >= 1, got {steps!r}")
-    return int(steps)
-
-
-def check_direction(direction) -> tuple[float, float]:
-    """The unit vector along ``direction`` (any non-zero in-plane vector)."""
-    try:
-        ex, ey = (float(v) for v in direction)
-    except (TypeError, ValueError):
-        raise InputError("direction", f"must be an in-plane vector (x, y), got {direction!r}") from None
-    norm = math.hypot(ex, ey)
-    if not math.isfinite(norm):
-        raise InputError("direction", f"must be finite, got {direction!r}")
-    if norm == 0.0:
-        raise InputError("direction", "is the zero vector: the tangential load Q needs a direction")
-    return ex / norm, ey / norm
-
-
-def check_tangential(tangential, friction: float, load: float, name: str = "tangential") -> float:
-    """Q as a float in [0, fP), or :class:`InputError` saying why not (Q ≥ fP: full sliding)."""
-    q = require_finite(name, tangential)
-    if q < 0.0:
-        raise InputError(name, f"must be >= 0, got {q!r}; reverse `direction` for a load the other way")
-    if q >= friction * load:
-        raise full_sliding(name, q, friction * load)
-    return q
-
-
-def full_sliding(name: str, q: float, limit: float, within: float | None = None) -> InputError:
-    """The error for Q at or beyond fP (``within``: the load tolerance by which Q is below fP)."""
-    detail = f" to within the normal solve's load tolerance ({within:g})" if within is not None else ""
-    return InputError(name, f"Q = {q:.6g} N >= fP = {limit:.6g} N{detail}: full sliding. The traction is then "
-                            "f p everywhere but the tangential displacements are undetermined (§5.2); use "
-                            "CattaneoSolver.incipient_sliding() for the limit Q -> fP (Eq. 27)")
+from .result import TangentialState, centroid_of
 
 
 def first_touch_gap(problem: NormalProblem, rotation: tuple[float, float]) -> np.ndarray:
@@ -134,7 +86,7 @@ class CattaneoSolver(Collective):
         In-plane direction of Q, any non-zero vector (normalised here).
     method
         The corrective solver's method (``"auto"``, ``"ksp"``, ``"gauss-seidel"``, ``"cg"``);
-        ``"auto"`` is resolved here (:func:`~roughcontact.normal.choice.choose_method`).
+        ``"auto"`` is resolved by :func:`~roughcontact.normal.make_solver`.
     **solver_options
         Its options: ``settings``, ``rtol``, ``options``, ``prefix`` for the
         active set, ``settings``, ``nested`` for the CG; one the resolved
@@ -156,12 +108,10 @@ class CattaneoSolver(Collective):
         self.problem = problem
         self.normal = normal
         self.model = cattaneo_model(problem.interface)
-        name, reason = choose_method(problem.operator_kind, problem.size, method)
-        if name in ACTIVE_SET_METHODS:
+        name, _ = choose_method(problem.operator_kind, problem.size, method)
+        if "prefix" in solver_class(name).OPTIONS:
             solver_options.setdefault("prefix", "cattaneo_")
-        check_solver_options(name, reason, solver_options)
-        self.solver = make_solver(problem, name, **solver_options)
-        self.solver.method_reason = reason     # "auto: ...", not the "given" of the resolved name
+        self.solver = make_solver(problem, method, **solver_options)
         # warm start of the first corrective solve: the actual contact set and motion (Eq. 23
         # receding: the stick set is a subset of it)
         self.solver.warm_start(normal)
@@ -279,56 +229,3 @@ class CattaneoSolver(Collective):
         pb = self.problem
         values = traction[pb.topography.footprint][pb.start:pb.stop]
         return pb.to_field(pb.gather(pb.displacement(values)), np.nan)
-
-
-def centroid_of(traction: np.ndarray, zone: np.ndarray, spacing: float) -> tuple[float, float]:
-    """Centroid of the shear forces in ``zone`` (grid frame, m); NaN if they sum to zero."""
-    total = float(traction[zone].sum())
-    if total <= 0.0:
-        return (math.nan, math.nan)
-    i, j = np.nonzero(zone)
-    weights = traction[zone]
-    return (float(weights @ i) * spacing / total, float(weights @ j) * spacing / total)
-
-
-#: The methods of :class:`~roughcontact.normal.ActiveSetSolver` (they read PETSc options).
-ACTIVE_SET_METHODS = ("ksp", "gauss-seidel")
-
-
-def solver_option_names(method: str) -> tuple[str, ...]:
-    """The keyword options the normal solver of ``method`` (a resolved name) takes."""
-    if method in ACTIVE_SET_METHODS:
-        from ..normal.active_set import ActiveSetSolver as cls
-    else:
-        from ..normal.constrained_cg import ConstrainedCGSolver as cls
-    return tuple(name for name in inspect.signature(cls.__init__).parameters
-                 if name not in ("self", "problem", "method"))
-
-
-def check_solver_options(method: str, reason: str, options: dict) -> None:
-    """:class:`InputError` naming the ``options`` that the solver of ``method`` does not take.
-
-    ``reason`` says why ``method`` was chosen (``"given"`` or what ``"auto"`` picked).
-    """
-    accepted = solver_option_names(method)
-    wrong = [name for name in options if name not in accepted]
-    if wrong:
-        raise InputError(wrong[0], f"the corrective solver is {method!r} ({reason}), which takes only "
-                                   f"{', '.join(accepted)}; it does not take {', '.join(wrong)}. "
-                                   "Pass `method` for the solver these options are meant for")
-
-
-def check_normal(problem: NormalProblem, normal) -> None:
-    """:class:`InputError` unless ``normal`` solved ``problem`` with a load P > 0."""
-    if not isinstance(normal, NormalResult):
-        raise InputError("normal", f"must be a NormalResult, got {type(normal).__name__}")
-    if normal.force.shape != problem.topography.shape:
-        raise InputError("normal", f"its fields have shape {normal.force.shape}, the problem's grid "
-                                   f"{problem.topography.shape}: it was solved on another problem")
-    if not np.allclose(normal.reference_point, problem.centroid, rtol=0.0,
-                       atol=1e-9 * problem.topography.spacing):
-        raise InputError("normal", "its moments refer to another footprint centroid: "
-                                   "it was solved on another problem")
-    if not normal.load > 0.0:
-        raise InputError("normal", f"the normal load P must be > 0 for a tangential load "
-                                   f"(fP is the limit of Q), got P = {normal.load!r}")

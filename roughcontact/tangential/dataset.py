@@ -1,7 +1,7 @@
 """Tangential sweeps and fretting cycles as xarray datasets (Figs. 9–12), CF-style attributes.
 
 Variables carry ``units`` and ``long_name`` as in :mod:`roughcontact.datasets`;
-write them with :func:`roughcontact.datasets.write_netcdf`. A sweep's
+write them with :func:`roughcontact.netcdf.write_netcdf`. A sweep's
 dimension is ``Q`` (the tangential load, N) with the coordinate
 ``Q_over_fP`` on it, so ``ds.swap_dims(Q="Q_over_fP")`` plots against Q/fP.
 Global attributes say whether the model is exact (``cattaneo_model``) and,
@@ -12,19 +12,16 @@ of the sweep.
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 import xarray as xr
 
 from .. import __version__
 from ..datasets import grid_coords, scalar_variables
+from ..errors import InputError
+from .fretting import FrettingCycle
+from .fretting_map import FrettingMap
+from .sweep import TangentialSweep
 from .uncoupled_error import uncoupled_error_attrs
-
-if TYPE_CHECKING:
-    from .fretting import FrettingCycle
-    from .fretting_map import FrettingMap
-    from .sweep import TangentialSweep
 
 _SCALARS = {
     # name: (getter, units, long_name)
@@ -56,13 +53,18 @@ _SCALARS = {
 ZONES = {"flag_values": np.array([0, 1, 2], dtype=np.int8), "flag_meanings": "no_contact stick slip"}
 
 
-def tangential_dataset(sweep: "TangentialSweep", fields: bool = True,
+def tangential_dataset(sweep: TangentialSweep, fields: bool = True,
                        attrs: dict | None = None) -> xr.Dataset:
     """One dataset of a tangential sweep along ``Q``.
 
     With ``fields`` the shear force q̄, the stick/slip zones, the slip g and
-    the frictional energy density (Eq. 26) are stored on (Q, x, y).
+    the frictional energy density (Eq. 26) are stored on (Q, x, y). A coupled
+    sweep (:mod:`.coupled`) has no such layout: its states carry two shear
+    components and an approach vector.
     """
+    if sweep.model == "coupled":
+        raise InputError("sweep", "coupled sweeps have no dataset layout; compare them with the uncoupled "
+                                  "sweep's states (tools/chart_uncoupled_error.py)")
     states = sweep.states
     normal = sweep.normal
     dim = "Q"
@@ -108,7 +110,7 @@ def tangential_dataset(sweep: "TangentialSweep", fields: bool = True,
     return ds
 
 
-def fretting_dataset(cycle: "FrettingCycle", attrs: dict | None = None) -> xr.Dataset:
+def fretting_dataset(cycle: FrettingCycle, attrs: dict | None = None) -> xr.Dataset:
     """The Q–δx path of a fretting cycle (loading, unloading, reloading) along ``step``."""
     dim = "step"
     first = cycle.loading.states[0]
@@ -138,7 +140,7 @@ def fretting_dataset(cycle: "FrettingCycle", attrs: dict | None = None) -> xr.Da
     return ds
 
 
-def fretting_map_dataset(fretting: "FrettingMap", attrs: dict | None = None) -> xr.Dataset:
+def fretting_map_dataset(fretting: FrettingMap, attrs: dict | None = None) -> xr.Dataset:
     """Energy per cycle against amplitude (:class:`~.fretting_map.FrettingMap`) along ``amplitude``."""
     dim = "amplitude"
     data = {

@@ -33,7 +33,7 @@ import numpy as np
 from ..errors import InputError
 from ..normal.problem import NormalProblem
 from ..normal.result import NormalResult
-from .cattaneo import check_friction, check_normal, check_steps, check_tangential
+from .checks import check_friction, check_normal, check_steps, check_tangential
 from .energy import frictional_energy, loop_area
 from .sweep import TangentialSweep, tangential_sweep
 
@@ -105,12 +105,6 @@ class FrettingCycle:
             return state.traction
         sign = 1.0 if branch == UNLOADING else -1.0
         return reversal_traction(self.turning_point.traction, state.traction, sign)
-
-    def dataset(self, attrs: dict | None = None):
-        """The path as an xarray Dataset (:func:`~.dataset.fretting_dataset`)."""
-        from .dataset import fretting_dataset
-
-        return fretting_dataset(self, attrs=attrs)
 
 
 def reversal_traction(turning: np.ndarray, correction: np.ndarray, sign: float) -> np.ndarray:

@@ -21,10 +21,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
 from ..normal.problem import NormalProblem
 from ..normal.result import NormalResult
-from .cattaneo import check_friction, check_normal, check_steps
+from .checks import check_amplitudes, check_friction, check_normal, check_steps
 from .history import TangentialHistory, tangential_history
 
 
@@ -74,24 +73,6 @@ class FrettingMap:
     @property
     def model(self) -> str:
         return self.history.model
-
-    def dataset(self, attrs: dict | None = None):
-        """The map as an xarray Dataset along ``amplitude`` (:func:`~.dataset.fretting_map_dataset`)."""
-        from .dataset import fretting_map_dataset
-
-        return fretting_map_dataset(self, attrs=attrs)
-
-
-def check_amplitudes(amplitudes, name: str = "amplitudes") -> np.ndarray:
-    """Q*/(fP) values: a non-empty, strictly increasing list in (0, 1)."""
-    values = np.atleast_1d(np.asarray(amplitudes, dtype=float))
-    if values.ndim != 1 or values.size == 0:
-        raise InputError(name, "must be a non-empty list of Q*/(fP)")
-    if not np.all(np.isfinite(values)) or values.min() <= 0.0 or values.max() >= 1.0:
-        raise InputError(name, f"are Q*/(fP) and must lie in (0, 1), got {values.tolist()!r}")
-    if np.any(np.diff(values) <= 0.0):
-        raise InputError(name, f"must be strictly increasing (the amplitude is stepped up), got {values.tolist()!r}")
-    return values
 
 
 def stepped_amplitude_path(limit: float, amplitudes: np.ndarray, steps: int):

@@ -39,13 +39,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError, require_finite
+from ..checks import require_finite
+from ..errors import InputError
 from ..normal.problem import NormalProblem
 from ..normal.result import NormalResult
-from .cattaneo import CattaneoSolver, check_friction, check_normal, check_tangential
+from .cattaneo import CattaneoSolver
+from .checks import check_friction, check_normal, check_tangential
 from .energy import loop_area
+from .model import check_resticking
 from .result import TangentialState
-from .sweep import check_resticking
 
 #: Digits of X / fP that tell two monotonic states apart (the corrective load's resolution is ~1e-13).
 CACHE_DIGITS = 12

@@ -57,3 +57,22 @@ def cattaneo_model(interface: Interface, warn: bool = True) -> str:
             "tangential results are the uncoupled approximation (labelled cattaneo_model)",
             UncoupledApproximationWarning, stacklevel=3)
     return UNCOUPLED
+
+
+def resticking_nodes(states) -> int:
+    """The most nodes that joined the stick set between two successive states."""
+    return max((int((b.stick & ~a.stick).sum()) for a, b in zip(states, states[1:])), default=0)
+
+
+def check_resticking(states, between: str = "two steps of the sweep", stacklevel: int = 3) -> int:
+    """:func:`resticking_nodes` of ``states`` (in increasing Q), warned about unless zero.
+
+    ``stacklevel`` 3 points the :class:`CattaneoConsistencyWarning` at the
+    caller of the function that calls this one.
+    """
+    resticking = resticking_nodes(states)
+    if resticking:
+        warnings.warn(f"{resticking} node(s) joined the stick set between {between}: the "
+                      "stick sets do not recede, so E_f (Eq. 26) undercounts their earlier slip "
+                      "(resticking_nodes)", CattaneoConsistencyWarning, stacklevel=stacklevel)
+    return resticking

@@ -1,6 +1,7 @@
 """The tangential state of a rough contact at one shear load Q (§4.2, §5)."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -150,3 +151,13 @@ class TangentialState(LoadedContact):
                 f"A_stick={self.stick_area:.4g} m², A_slip={self.slip_area:.4g} m², "
                 f"Q_stick={self.stick_force:.4g} N, Q_slip={self.slip_force:.4g} N, "
                 f"E_f={self.frictional_energy:.4g} J, {self.model}{tag}")
+
+
+def centroid_of(traction: np.ndarray, zone: np.ndarray, spacing: float) -> tuple[float, float]:
+    """Centroid of the shear forces in ``zone`` (grid frame, m); NaN if they sum to zero."""
+    total = float(traction[zone].sum())
+    if total <= 0.0:
+        return (math.nan, math.nan)
+    i, j = np.nonzero(zone)
+    weights = traction[zone]
+    return (float(weights @ i) * spacing / total, float(weights @ j) * spacing / total)

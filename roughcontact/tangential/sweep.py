@@ -4,12 +4,11 @@ Each Q needs one corrective normal solve at P* = P − Q/f (Eq. 23); as Q
 grows P* falls and the stick set recedes, so one corrective solver
 warm-started from the previous stick set does each step in a few
 active-set iterations. :class:`TangentialSweep` records the sweep's wall
-time; ``scripts/bench_tangential.py`` measures it against a normal solve.
+time; ``benchmarks/bench_tangential.py`` measures it against a normal solve.
 """
 from __future__ import annotations
 
 import time
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -17,9 +16,10 @@ import numpy as np
 from ..errors import InputError
 from ..normal.problem import NormalProblem
 from ..normal.result import NormalResult
-from .cattaneo import CattaneoSolver, check_friction, check_normal, check_steps, check_tangential
+from .cattaneo import CattaneoSolver
+from .checks import check_friction, check_normal, check_steps, check_tangential
 from .energy import work
-from .model import CattaneoConsistencyWarning
+from .model import check_resticking
 from .result import TangentialState
 
 
@@ -71,12 +71,6 @@ class TangentialSweep:
         """W = ∫ Q dδx from the first state (trapezoidal rule, :func:`~.energy.work`), J."""
         return work(self.tangential, self.approach)
 
-    def dataset(self, fields: bool = True, attrs: dict | None = None):
-        """The sweep as an xarray Dataset (:func:`~.dataset.tangential_dataset`)."""
-        from .dataset import tangential_dataset
-
-        return tangential_dataset(self, fields=fields, attrs=attrs)
-
 
 def tangential_loads(friction: float, load: float, steps: int) -> np.ndarray:
     """Q_k = k fP / N for k = 0 … N − 1 (Q = fP itself is the incipient-sliding limit)."""
@@ -106,25 +100,6 @@ def sweep_loads(problem: NormalProblem, normal: NormalResult, friction: float, s
     if np.any(np.diff(loads) < 0.0):
         raise InputError("tangential", f"must be increasing (monotonic loading; {reversals})")
     return friction, loads
-
-
-def resticking_nodes(states) -> int:
-    """The most nodes that joined the stick set between two successive states."""
-    return max((int((b.stick & ~a.stick).sum()) for a, b in zip(states, states[1:])), default=0)
-
-
-def check_resticking(states, between: str = "two steps of the sweep", stacklevel: int = 3) -> int:
-    """:func:`resticking_nodes` of ``states`` (in increasing Q), warned about unless zero.
-
-    ``stacklevel`` 3 points the :class:`CattaneoConsistencyWarning` at the
-    caller of the function that calls this one.
-    """
-    resticking = resticking_nodes(states)
-    if resticking:
-        warnings.warn(f"{resticking} node(s) joined the stick set between {between}: the "
-                      "stick sets do not recede, so E_f (Eq. 26) undercounts their earlier slip "
-                      "(resticking_nodes)", CattaneoConsistencyWarning, stacklevel=stacklevel)
-    return resticking
 
 
 def tangential_sweep(problem: NormalProblem, normal: NormalResult, friction: float,

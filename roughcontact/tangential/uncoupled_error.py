@@ -3,7 +3,7 @@
 The discrete Cattaneo theorem (Eqs. 21–24) is exact for β = 0 and γ = 0
 (Eqs. 4b, 5); for γ ≠ 0 it drops the γ terms of Eqs. 15–16. How much that
 costs was measured against the coupled solve
-(:mod:`roughcontact.tangential.coupled`) by ``scripts/chart_uncoupled_error.py``,
+(:mod:`roughcontact.tangential.coupled`) by ``tools/chart_uncoupled_error.py``,
 which also writes the table read here (:mod:`.uncoupled_error_table`): the
 largest |error| over a Hertz contact and rough surfaces Δ = 2.1–2.5, at
 each charted ν (γ) and Q/fP.
@@ -100,7 +100,7 @@ def uncoupled_error_attrs(gamma: float, beta: float, load_ratios: Iterable[float
         "largest |error| of the uncoupled Cattaneo model against the coupled solve measured at the charted "
         f"gamma {min(measured.GAMMA):g}-{max(measured.GAMMA):g} and Q/fP {min(measured.Q_OVER_FP):g}-"
         f"{max(measured.Q_OVER_FP):g} bracketing this dataset (beta = 0, {grid}x{grid} grids, surfaces: "
-        f"{', '.join(measured.SURFACES)}; scripts/chart_uncoupled_error.py); 0 when exact; relative for "
+        f"{', '.join(measured.SURFACES)}; tools/chart_uncoupled_error.py); 0 when exact; relative for "
         "approach, frictional_energy and stick_area, over fP for stick_force, in grid spacings for centroid, "
         "over f max p for cross_traction; the limit Q -> fP is not charted")
     return out

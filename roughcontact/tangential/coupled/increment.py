@@ -53,7 +53,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from ...errors import ConvergenceError, InputError
-from ...normal.petsc import OptionsScope, solve_checked
+from ...petsc import OptionsScope, solve_checked
 from .operator import Basis, ShearOperator, TangentPC, tangent_mat
 
 LOAD, DISPLACEMENT = "load", "displacement"

@@ -5,7 +5,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...errors import InputError
 from ...normal.result import NormalResult
 from ..result import LoadedContact
 from ..sweep import TangentialSweep
@@ -133,7 +132,3 @@ class CoupledSweep(TangentialSweep):
     """
 
     states: tuple[CoupledState, ...]
-
-    def dataset(self, fields: bool = True, attrs: dict | None = None):
-        raise InputError("sweep", "coupled sweeps have no dataset layout; compare them with the uncoupled "
-                                  "sweep's states (scripts/chart_uncoupled_error.py)")

@@ -16,12 +16,14 @@ import time
 
 import numpy as np
 
+from ...checks import require_finite
 from ...collective import Collective
-from ...errors import InputError, require_finite
+from ...errors import InputError
 from ...materials import Interface
 from ...normal.problem import NormalProblem
 from ...normal.result import NormalResult
-from ..cattaneo import centroid_of, check_direction, check_friction, check_normal, full_sliding
+from ..checks import check_direction, check_friction, check_normal, full_sliding
+from ..result import centroid_of
 from .increment import DISPLACEMENT, LOAD, CoupledSettings, Increment, IncrementSolver
 from .operator import ShearOperator
 from .result import CoupledState

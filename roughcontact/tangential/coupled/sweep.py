@@ -5,7 +5,8 @@ import time
 
 from ...normal.problem import NormalProblem
 from ...normal.result import NormalResult
-from ..sweep import resticking_nodes, sweep_loads
+from ..model import resticking_nodes
+from ..sweep import sweep_loads
 from .result import CoupledSweep
 from .solver import CoupledTangentialSolver
 

@@ -7,7 +7,7 @@ at 8 s), against a rigid flat, E* = 1, mean pressure 0.01 E*, relative
 tolerance 1e-8. Each n gets one surface, saved once and read by every code,
 so all three solve identical heights.
 
-    python scripts/bench_normal_large.py [--sizes 128 256 512 1024 2048] [--ranks 1 2]
+    python -m benchmarks.bench_normal_large [--sizes 128 256 512 1024 2048] [--ranks 1 2]
         [--peers-python PATH] [--peer-sizes 128 256 512 1024] [--output results/bench_normal_large.json]
 
 roughcontact's wall time includes building the operator (the problem and
@@ -34,9 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
-from _ranks import save_json, scene_surface  # noqa: E402
+from benchmarks.common import ROOT, run_module, save_json, scene_surface
 
 PRESSURE = 0.01          # mean pressure / E*
 
@@ -76,7 +74,7 @@ def worker(args) -> None:
     petsc4py.init([])
     from mpi4py import MPI
 
-    from _ranks import emit, write_rows
+    from benchmarks.common import emit, write_rows
     from roughcontact.materials import Interface, Material
     from roughcontact.normal import NormalProblem, make_solver
     from roughcontact.surfaces import Topography
@@ -154,10 +152,10 @@ def peer(args) -> None:
 
 
 def run_peer(python: str, name: str, surface: Path, timeout: float) -> dict | None:
-    cmd = [python, str(Path(__file__).resolve()), "--peer", name, "--surface", str(surface)]
+    cmd = run_module(__spec__.name, ["--peer", name, "--surface", str(surface)], python)
     env = dict(os.environ, OMP_NUM_THREADS=os.environ.get("OMP_NUM_THREADS", "2"))
     try:
-        run = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
+        run = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env, cwd=ROOT)
     except subprocess.TimeoutExpired:
         return {"code": name, "n": int(np.load(surface).shape[0]), "seconds": None, "note": f"over {timeout:g} s"}
     if run.returncode != 0:
@@ -215,7 +213,7 @@ def figure(rows: list[dict], path: Path) -> None:
 
 
 def main() -> None:
-    from _ranks import add_launch_arguments, run_on_ranks
+    from benchmarks.common import add_launch_arguments, run_on_ranks
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     add_launch_arguments(parser, repeats=3, output="results/bench_normal_large.json")
@@ -244,7 +242,7 @@ def main() -> None:
         for n, heights in continuous_surfaces(args.kernel_sizes).items():
             continuous[n] = Path(tmp) / f"continuous-{n}.npy"
             np.save(continuous[n], heights)
-        rows = run_on_ranks(__file__, args.ranks, ["--repeats", str(args.repeats), "--surfaces",
+        rows = run_on_ranks(__spec__.name, args.ranks, ["--repeats", str(args.repeats), "--surfaces",
                                                    *[str(surfaces[n]) for n in args.sizes],
                                                    *[str(continuous[n]) for n in args.kernel_sizes]])
         names = peers_available(args.peers_python)

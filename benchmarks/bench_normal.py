@@ -9,8 +9,8 @@ compared with filling a C-ordered array of the same size on the same rank
 (``fill_c_array_s_median``; its ratio ``assembly_over_fill``). Times are
 medians of --repeats runs measured in this one invocation.
 
-    python scripts/bench_normal.py                         # writes results/bench_normal.json
-    python scripts/bench_normal.py --sizes 32 64 --ranks 1 # a quicker look
+    python -m benchmarks.bench_normal                         # writes results/bench_normal.json
+    python -m benchmarks.bench_normal --sizes 32 64 --ranks 1 # a quicker look
 """
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from _ranks import add_launch_arguments, emit, run_on_ranks, write_rows
+from benchmarks.common import add_launch_arguments, emit, run_on_ranks, write_rows
 
 
 def worker(args) -> None:
@@ -33,10 +33,10 @@ def worker(args) -> None:
     from mpi4py import MPI
 
     from roughcontact.materials import Interface, Material
+    from roughcontact.normal import ActiveSetSolver, NormalProblem
     from roughcontact.operators.dense import assemble_flexibility
     from roughcontact.operators.kernel import punch_kernel
     from roughcontact.operators.layout import NodeLayout
-    from roughcontact.normal import ActiveSetSolver, NormalProblem
     from roughcontact.surfaces import Topography, midpoint_surface
 
     comm = MPI.COMM_WORLD
@@ -117,7 +117,7 @@ def main() -> None:
     if args.worker:
         worker(args)
         return
-    rows = run_on_ranks(__file__, args.ranks, ["--repeats", str(args.repeats), "--gs-max-unknowns", str(args.gs_max_unknowns),
+    rows = run_on_ranks(__spec__.name, args.ranks, ["--repeats", str(args.repeats), "--gs-max-unknowns", str(args.gs_max_unknowns),
                    "--sizes", *map(str, args.sizes)])
     report = {"benchmark": "normal contact, displacement control at ~25 % geometric overlap",
               "machine": {"cpus": os.cpu_count()}, "rows": rows}

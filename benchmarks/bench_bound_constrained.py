@@ -10,7 +10,7 @@ the contact conditions hold to the same measure and tolerance as the CG
 run: wall time, iterations and FFT products, and the error of the contact
 area against the CG's answer.
 
-    python scripts/bench_bound_constrained.py [--sizes 128 256 512] [--output results/bench_bound_constrained.json]
+    python -m benchmarks.bench_bound_constrained [--sizes 128 256 512] [--output results/bench_bound_constrained.json]
 
 A surface of the large-grid benchmark (Fourier-filtered, H = 0.8, unit rms
 slope, roll-off at the box, cut-off at 8 s, non-periodic), E* = 1, the
@@ -20,14 +20,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _ranks import save_json, scene_surface  # noqa: E402
+from benchmarks.common import save_json, scene_surface
 
 TAO_TYPES = ("bncg", "blmvm", "bqnls", "gpcg", "tron", "bqnkls")
 

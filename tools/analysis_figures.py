@@ -9,7 +9,7 @@ four resolutions under 100 N, then writes
 - ``default-surface_resolution.png``: A_r against s with its exponent (Fig. 1d),
 
 and prints the headline numbers. Run as
-``.venv/bin/mpiexec -n 2 .venv/bin/python scripts/analysis_figures.py [OUTPUT]``.
+``.venv/bin/mpiexec -n 2 .venv/bin/python -m tools.analysis_figures [OUTPUT]``.
 """
 from __future__ import annotations
 
@@ -23,8 +23,9 @@ from roughcontact.analysis import contact_area_resolution
 from roughcontact.analysis.command import analyse_file
 from roughcontact.analysis.figures import power_law_figure
 from roughcontact.analysis.petsc import solve_resolutions
-from roughcontact.datasets import normal_sweep_dataset, write_netcdf
+from roughcontact.datasets import normal_sweep_dataset
 from roughcontact.materials import Interface, Material
+from roughcontact.netcdf import write_netcdf
 from roughcontact.normal import NormalProblem, solve_loads
 from roughcontact.surfaces import midpoint_surface
 

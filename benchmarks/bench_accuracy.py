@@ -19,7 +19,7 @@ Configurations: operator ``dense`` (up to 128²) and ``fft``; method ``ksp``
 (active set, inner rtol 1e-3 tol) and ``cg``; tol 1e-4, 1e-6, 1e-8. Wall
 time: the problem (operator) and the solve, median of ``--repeats``.
 
-    python scripts/bench_accuracy.py [--rough-sizes 128 256 512] [--reference 1024] [--output results/bench_accuracy.json]
+    python -m benchmarks.bench_accuracy [--rough-sizes 128 256 512] [--reference 1024] [--output results/bench_accuracy.json]
 
 Writes JSON (rows, and per accuracy asked the cheapest configuration found)
 and a PNG of time against error.
@@ -28,14 +28,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _ranks import save_json, scene_surface  # noqa: E402
+from benchmarks.common import save_json, scene_surface
 
 TOLERANCES = (1e-4, 1e-6, 1e-8)
 DENSE_LARGEST = 128 * 128

@@ -2,7 +2,7 @@
 
 Usage::
 
-    python scripts/bench_surfaces.py [--sizes 1024 4096] [--repeats 5 3] [--output results/bench_surfaces.json]
+    python -m benchmarks.bench_surfaces [--sizes 1024 4096] [--repeats 5 3] [--output results/bench_surfaces.json]
 
 For each generator and size, the time is the median of ``repeats`` runs
 (``time.perf_counter``) and the memory is the peak of Python-visible

@@ -10,8 +10,8 @@ warm-started from step to step (Eq. 23). Also timed: one corrective solve
 from a cold start (fixed rotation, P* = P/2), the unit each step would cost
 without warm starts. Times are medians of --repeats runs in this invocation.
 
-    python scripts/bench_tangential.py                        # writes results/bench_tangential.json
-    python scripts/bench_tangential.py --sizes 33 --ranks 1   # a quicker look
+    python -m benchmarks.bench_tangential                        # writes results/bench_tangential.json
+    python -m benchmarks.bench_tangential --sizes 33 --ranks 1   # a quicker look
 """
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from _ranks import add_launch_arguments, emit, run_on_ranks, write_rows
+from benchmarks.common import add_launch_arguments, emit, run_on_ranks, write_rows
 
 
 def worker(args) -> None:
@@ -107,7 +107,7 @@ def main() -> None:
     if args.worker:
         worker(args)
         return
-    rows = run_on_ranks(__file__, args.ranks, ["--repeats", str(args.repeats), "--sizes", *map(str, args.sizes),
+    rows = run_on_ranks(__spec__.name, args.ranks, ["--repeats", str(args.repeats), "--sizes", *map(str, args.sizes),
                    "--steps", *map(str, args.steps)])
     report = {"benchmark": "tangential sweep Q = 0 ... fP in N steps (+ the incipient-sliding limit) "
                            "against one normal solve (load control, free rotation, cold start)",

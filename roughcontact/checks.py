@@ -1,7 +1,9 @@
-"""Argument checks shared by the surface generators, readers and analyses.
+"""Argument checks shared by every package: numbers, integers, shapes, choices, vectors, seeds.
 
-Each check returns the cleaned value or raises :class:`InputError` naming the
-parameter as the user wrote it.
+Each check returns the cleaned value or raises :class:`~roughcontact.errors.InputError`
+naming the parameter as the user wrote it, so bad input is a one-line error
+and never a traceback from deep inside a solver. The tangential package's own
+inputs (f, Q, amplitudes) are checked in :mod:`roughcontact.tangential.checks`.
 """
 from __future__ import annotations
 
@@ -9,20 +11,48 @@ import numbers
 
 import numpy as np
 
-from ..errors import InputError, require_finite_positive
+from .errors import InputError
+
+
+def require_finite(name: str, value) -> float:
+    """Return ``float(value)`` or raise :class:`InputError` if not a finite number."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(name, f"must be a number, got {value!r}") from None
+    if v != v or v in (float("inf"), float("-inf")):
+        raise InputError(name, f"must be finite, got {value!r}")
+    return v
+
+
+def require_finite_positive(name: str, value: float) -> float:
+    """Return ``float(value)`` or raise :class:`InputError` if not finite and > 0."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(name, f"must be a number, got {value!r}") from None
+    if not (v > 0.0) or v == float("inf"):
+        raise InputError(name, f"must be finite and > 0, got {value!r}")
+    return v
+
+
+def check_open_interval(name: str, value, low: float, high: float, meaning: str = "") -> float:
+    """``value`` as a float in the open interval (low, high); ``meaning`` follows the interval in
+    the error (booleans are refused: ``True`` is not a number here)."""
+    if isinstance(value, bool):
+        raise InputError(name, f"must be a number, got {value!r}")
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise InputError(name, f"must be a number, got {value!r}") from None
+    if not (low < number < high):
+        raise InputError(name, f"must lie in ({low:g}, {high:g}){meaning}, got {value!r}")
+    return number
 
 
 def check_fractal_dimension(fractal_dimension: float) -> float:
     """Return Δ as a float, or raise unless 2 < Δ < 3 (a surface)."""
-    if isinstance(fractal_dimension, bool):
-        raise InputError("fractal_dimension", f"must be a number, got {fractal_dimension!r}")
-    try:
-        d = float(fractal_dimension)
-    except (TypeError, ValueError):
-        raise InputError("fractal_dimension", f"must be a number, got {fractal_dimension!r}") from None
-    if not (2.0 < d < 3.0):
-        raise InputError("fractal_dimension", f"must lie in (2, 3) for a surface, got {fractal_dimension!r}")
-    return d
+    return check_open_interval("fractal_dimension", fractal_dimension, 2.0, 3.0, " for a surface")
 
 
 def hurst_exponent(fractal_dimension: float | None = None, hurst: float | None = None) -> float:
@@ -31,15 +61,7 @@ def hurst_exponent(fractal_dimension: float | None = None, hurst: float | None =
         raise InputError("hurst", "give exactly one of fractal_dimension (Δ in (2, 3)) or hurst (H = 3 − Δ in (0, 1))")
     if fractal_dimension is not None:
         return 3.0 - check_fractal_dimension(fractal_dimension)
-    if isinstance(hurst, bool):
-        raise InputError("hurst", f"must be a number, got {hurst!r}")
-    try:
-        h = float(hurst)
-    except (TypeError, ValueError):
-        raise InputError("hurst", f"must be a number, got {hurst!r}") from None
-    if not (0.0 < h < 1.0):
-        raise InputError("hurst", f"must lie in (0, 1) (Δ = 3 − H in (2, 3)), got {hurst!r}")
-    return h
+    return check_open_interval("hurst", hurst, 0.0, 1.0, " (Δ = 3 − H in (2, 3))")
 
 
 def check_seed(seed) -> int:

@@ -1,5 +1,9 @@
-"""Shared by the benchmark scripts: run a worker under mpiexec for each rank count, the large-grid
-scene's surface, and writing the JSON of results."""
+"""Shared by the benchmarks: run a worker under mpiexec for each rank count, the large-grid
+scene's surface, and writing the JSON of results.
+
+Benchmarks run as modules from the repository root (``python -m benchmarks.bench_farm``),
+so this helper imports as ``benchmarks.common`` and workers start the same way.
+"""
 from __future__ import annotations
 
 import argparse
@@ -18,18 +22,26 @@ def mpiexec() -> str:
     return os.environ.get("MPIEXEC") or (str(own) if own.exists() else "mpiexec")
 
 
-def run_on_ranks(script: str, ranks: list[int], worker_args: list[str]) -> list[dict]:
-    """Rows written by ``script --worker --json FILE <worker_args>`` on each rank count."""
+#: the repository root: workers and peers start here, where ``benchmarks`` is importable
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def run_module(module: str, args: list[str], python: str | None = None) -> list[str]:
+    """The command line that runs benchmark ``module`` (e.g. ``benchmarks.bench_farm``) with ``args``."""
+    return [python or sys.executable, "-m", module, *args]
+
+
+def run_on_ranks(module: str, ranks: list[int], worker_args: list[str]) -> list[dict]:
+    """Rows written by ``module --worker --json FILE <worker_args>`` on each rank count."""
     rows = []
     for n in ranks:
         with tempfile.TemporaryDirectory() as tmp:
             out = Path(tmp) / "rows.json"
-            cmd = [mpiexec(), "-n", str(n), sys.executable, script, "--worker", "--json", str(out),
-                   *worker_args]
+            cmd = [mpiexec(), "-n", str(n), *run_module(module, ["--worker", "--json", str(out), *worker_args])]
             # one BLAS thread per rank: OpenBLAS's spinning threads oversubscribe the cores otherwise
             env = dict(os.environ, OPENBLAS_NUM_THREADS=os.environ.get("OPENBLAS_NUM_THREADS", "1"),
                        OMP_NUM_THREADS=os.environ.get("OMP_NUM_THREADS", "1"))
-            subprocess.run(cmd, check=True, env=env)
+            subprocess.run(cmd, check=True, env=env, cwd=ROOT)
             rows.extend(json.loads(out.read_text()))
     return rows
 

@@ -12,20 +12,17 @@ at 8 s, non-periodic, E* = 1), one rank:
   previous one (warm) or cold (nested start): iterations and wall time of
   the whole sweep.
 
-    python scripts/bench_starts.py [--sizes 256 512 1024] [--output results/bench_starts.json]
+    python -m benchmarks.bench_starts [--sizes 256 512 1024] [--output results/bench_starts.json]
 """
 from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _ranks import save_json, scene_surface  # noqa: E402
+from benchmarks.common import save_json, scene_surface
 
 
 def main() -> None:

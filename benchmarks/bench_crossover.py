@@ -9,20 +9,17 @@ default of ``solve_load``) and fixed. For each grid (17² to 257²), operator
 of ``--repeats``, on one rank. The dense operator stops at 129² (257² would
 need 35 GB).
 
-    python scripts/bench_crossover.py [--levels 4 5 6 7 8] [--output results/bench_crossover.json]
+    python -m benchmarks.bench_crossover [--levels 4 5 6 7 8] [--output results/bench_crossover.json]
 """
 from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _ranks import save_json  # noqa: E402
+from benchmarks.common import save_json
 
 
 def main() -> None:

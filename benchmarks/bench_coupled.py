@@ -8,8 +8,8 @@ the uncoupled sweep (Eqs. 21–24: one corrective normal solve per Q, active
 set) and the coupled sweep (one Newton increment per Q, Krylov inner
 solves) over Q = k fP/N, k = 0 … N − 1. Times are medians of --repeats.
 
-    python scripts/bench_coupled.py                       # writes results/bench_coupled.json
-    python scripts/bench_coupled.py --levels 6 --ranks 1  # a quicker look
+    python -m benchmarks.bench_coupled                       # writes results/bench_coupled.json
+    python -m benchmarks.bench_coupled --levels 6 --ranks 1  # a quicker look
 """
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ import statistics
 import time
 import warnings
 
-from _ranks import add_launch_arguments, emit, run_on_ranks, save_json, write_rows
+from benchmarks.common import add_launch_arguments, emit, run_on_ranks, save_json, write_rows
 
 
 def worker(args) -> None:
@@ -76,7 +76,7 @@ def main() -> None:
     if args.worker:
         worker(args)
         return
-    rows = run_on_ranks(__file__, args.ranks, ["--levels", *map(str, args.levels), "--steps", str(args.steps),
+    rows = run_on_ranks(__spec__.name, args.ranks, ["--levels", *map(str, args.levels), "--steps", str(args.steps),
                                                "--friction", str(args.friction), "--repeats", str(args.repeats)])
     save_json(rows, args.output)
 

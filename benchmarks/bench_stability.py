@@ -11,7 +11,7 @@ time. Each (method, grid) runs in its own process under a time limit
 (``--limit`` seconds for the pressures of one surface; a case over it is "timeout").
 Writes JSON and a heat-map PNG per method.
 
-    python scripts/bench_stability.py [--sizes 64 128 256 512 1024] [--output results/bench_stability.json]
+    python -m benchmarks.bench_stability [--sizes 64 128 256 512 1024] [--output results/bench_stability.json]
 
 Gauss–Seidel gathers H_SS on every rank and sweeps it: it runs up to 128²;
 the active set up to 512² (its explicit and matrix-free blocks make a
@@ -23,14 +23,12 @@ from __future__ import annotations
 import argparse
 import json
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _ranks import save_json, scene_surface  # noqa: E402
+from benchmarks.common import ROOT, run_module, save_json, scene_surface
 
 PRESSURES = (1e-4, 1e-3, 1e-2, 0.1, 0.3, 1.0)
 DIMENSIONS = (2.1, 2.3, 2.5, 2.8)
@@ -129,10 +127,10 @@ def main() -> None:
                 continue
             done = []
             for dimension in DIMENSIONS:
-                cmd = [sys.executable, str(Path(__file__).resolve()), "--row", method, str(n), str(dimension)]
+                cmd = run_module(__spec__.name, ["--row", method, str(n), str(dimension)])
                 missing = "timeout"                   # the outcome of the cases a row did not reach
                 try:
-                    finished = subprocess.run(cmd, capture_output=True, text=True, timeout=args.limit)
+                    finished = subprocess.run(cmd, capture_output=True, text=True, timeout=args.limit, cwd=ROOT)
                     stdout = finished.stdout
                     if finished.returncode != 0:
                         missing = f"crashed (rc={finished.returncode}): {finished.stderr.strip()[-200:]}"

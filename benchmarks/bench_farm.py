@@ -20,8 +20,8 @@ files). Reported, medians of --repeats runs in one invocation:
   farm's scheduling loses, whatever else shares the machine's cores;
 - rank 0's write throughput = bytes of task files / time rank 0 spends writing them.
 
-    python scripts/bench_farm.py                  # writes results/bench_farm.json
-    python scripts/bench_farm.py --repeats 1      # a quicker look
+    python -m benchmarks.bench_farm                  # writes results/bench_farm.json
+    python -m benchmarks.bench_farm --repeats 1      # a quicker look
 """
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ import time
 
 import numpy as np
 
-from _ranks import add_launch_arguments, emit, run_on_ranks, save_json, write_rows
+from benchmarks.common import add_launch_arguments, emit, run_on_ranks, save_json, write_rows
 
 CASES = {
     "small": {"levels": 5, "seeds": 64, "loads": list(np.linspace(20.0, 120.0, 6)), "fields": "all"},
@@ -52,8 +52,8 @@ def study_of(name: str) -> dict:
 
 
 def worker(args) -> None:
-    from mpi4py import MPI  # first: MPI with threads, as the command line starts it
     import petsc4py
+    from mpi4py import MPI  # first: MPI with threads, as the command line starts it
 
     petsc4py.init([])
     from roughcontact.farm import load_study, run_study, solve_task
@@ -149,7 +149,7 @@ def main() -> None:
         worker(args)
         return
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")     # one BLAS thread per rank
-    rows = run_on_ranks(__file__, args.ranks, ["--repeats", str(args.repeats), "--cases", *args.cases])
+    rows = run_on_ranks(__spec__.name, args.ranks, ["--repeats", str(args.repeats), "--cases", *args.cases])
     summary = []
     for name in args.cases:
         by_ranks = {r["ranks"]: r for r in rows if r["case"] == name}

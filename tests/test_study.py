@@ -19,6 +19,7 @@ TINY = {
     "output": {"fields": "all"},
 }
 ROOT = Path(__file__).resolve().parents[1]
+TINY_NODES = 17   # 2**4 + 1 nodes a side
 
 
 def test_single_surface_study_is_a_one_task_ensemble(comm, shared_dir):
@@ -40,6 +41,39 @@ def test_single_surface_study_is_a_one_task_ensemble(comm, shared_dir):
         assert np.all(np.diff(ds["contact_fraction"].values) > 0)
         assert np.isnan(ds["gap"].values).sum() == 0   # the footprint is the whole grid
     assert summary.paths["figure"].stat().st_size > 1000
+
+
+def test_closure_control_and_fixed_rotation_agree_with_load_control(comm, shared_dir):
+    """Three controls of one surface, solved by the farm: closures δz (rotation fixed at 0), loads
+    with the rotation fixed at 0, loads with it free. Closure control at δz gives the P that load
+    control at that P maps back to the same δz (the two controls of one convex problem, Eqs. 7–8),
+    to the load tolerance 1e-8 times the closure; with θ fixed the moments are outputs (not 0 on
+    a rough surface), with θ free they vanish and G_P lies on the footprint's centroid to the
+    moment tolerance (1e-8 P times the half-size, i.e. 1e-8 of the grid here)."""
+    closures = [2e-6, 5e-6, 1e-5]
+    by_closure = run_study(load_study({**TINY, "name": "by-closure", "normal": {"closures": closures}}),
+                           comm, shared_dir, log=lambda *a: None, quiet=True)
+    with xr.open_dataset(by_closure.paths["netcdf"], engine="h5netcdf") as ds:
+        assert ds["closure"].attrs["units"] == "m" and list(ds.dims) == ["closure", "x", "y"]
+        np.testing.assert_array_equal(ds["closure"], closures)
+        loads = ds["normal_load"].values
+        np.testing.assert_allclose(ds["force"].sum(("x", "y")), loads, rtol=1e-12)
+        np.testing.assert_array_equal(ds["rotation_x"], 0.0)
+    assert np.all(np.diff(loads) > 0)
+    fixed = run_study(load_study({**TINY, "name": "fixed", "normal": {"loads": loads.tolist(),
+                                                                       "rotation": [0.0, 0.0]}}),
+                      comm, shared_dir, log=lambda *a: None, quiet=True)
+    free = run_study(load_study({**TINY, "name": "free", "normal": {"loads": loads.tolist()}}),
+                     comm, shared_dir, log=lambda *a: None, quiet=True)
+    with xr.open_dataset(fixed.paths["netcdf"], engine="h5netcdf") as at_zero, \
+            xr.open_dataset(free.paths["netcdf"], engine="h5netcdf") as free_ds:
+        np.testing.assert_allclose(at_zero["closure"], closures, rtol=1e-7)
+        np.testing.assert_array_equal(at_zero["rotation_y"], 0.0)
+        assert np.abs(at_zero["moment_y"]).max() > 1e-3 * loads.max() * 1e-4   # an output, not imposed
+        centre = 0.5 * (TINY_NODES - 1) * 1e-4
+        np.testing.assert_allclose(free_ds["centroid_x"], centre, rtol=0, atol=1e-8 * TINY_NODES * 1e-4)
+        np.testing.assert_allclose(free_ds["centroid_y"], centre, rtol=0, atol=1e-8 * TINY_NODES * 1e-4)
+        assert np.abs(free_ds["rotation_y"]).max() > 0.0
 
 
 def test_default_study_is_the_ensemble_of_its_file():
@@ -98,6 +132,12 @@ loads = [1.0]
     ({"normal": {"loads": []}}, "normal.loads"),
     ({"normal": {"loads": ["abc"]}}, "normal.loads"),
     ({"normal": {"loads": [1.0], "pressures": [1e5]}}, "normal.loads"),
+    ({"normal": {"loads": [1.0], "closures": [1e-6]}}, "normal.loads"),
+    ({"normal": {"closures": [2e-6, 1e-6]}}, "normal.closures"),
+    ({"normal": {"closures": [1e-6], "rotation": "free"}}, "normal.rotation"),
+    ({"normal": {"loads": [1.0], "rotation": [0.0]}}, "normal.rotation"),
+    ({"normal": {"loads": [1.0], "rotation": "fixed"}}, "normal.rotation"),
+    ({"normal": {"loads": [1.0], "rotation": [0.0, "a"]}}, "normal.rotation"),
     ({"normal": {"loads": [1.0], "method": "jacobi"}}, "normal.method"),
     ({"normal": {"loads": [1.0], "operator": "sparse"}}, "normal.operator"),
     ({"solver": {}}, "study.solver"),

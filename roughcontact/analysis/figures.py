@@ -225,20 +225,23 @@ def contact_area_vs_load(ds: xr.Dataset, path, title: str = "") -> Path:
     or per combination of the other study dimensions.
     """
     plt = _pyplot()
-    load = next(name for name in LOAD_COORDINATES if name in ds.coords)
+    dim = next(name for name in (*LOAD_COORDINATES, "closure") if name in ds.dims)
+    # under closure control the load is an output, one curve of it per sample
+    load = ds["normal_load"] if dim == "closure" else ds[dim]
     area = ds["contact_fraction"]
     bands = "contact_fraction_lower" in ds
-    others = [d for d in area.dims if d != load]
+    others = [d for d in area.dims if d != dim]
     fig, ax = plt.subplots(figsize=(5.6, 4.0), constrained_layout=True)
     for labels in itertools.product(*(range(area.sizes[d]) for d in others)):
         where = dict(zip(others, labels))
         label = ", ".join(_dimension_label(ds, d, i) for d, i in where.items())
-        line, = ax.plot(ds[load], area.isel(where), "o-", ms=3, label=label or ("mean" if bands else None))
+        x = load.isel({d: i for d, i in where.items() if d in load.dims})
+        line, = ax.plot(x, area.isel(where), "o-", ms=3, label=label or ("mean" if bands else None))
         if bands:
-            ax.fill_between(ds[load], ds["contact_fraction_lower"].isel(where),
+            ax.fill_between(x, ds["contact_fraction_lower"].isel(where),
                             ds["contact_fraction_upper"].isel(where), color=line.get_color(), alpha=0.25, lw=0)
-    units = ds[load].attrs.get("units", "")
-    ax.set_xlabel(f"{ds[load].attrs.get('long_name', load)} [{units}]")
+    units = load.attrs.get("units", "")
+    ax.set_xlabel(f"{load.attrs.get('long_name', load.name)} [{units}]")
     ax.set_ylabel("real contact area fraction A_r / A_0")
     ax.set_xlim(left=0)
     ax.set_ylim(bottom=0)

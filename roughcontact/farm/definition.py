@@ -21,7 +21,9 @@ Example (the built-in default, also ``studies/fractal_ensemble.toml``)::
     body1 = { E = 20e9, nu = 0.2 }
     body2 = { E = 20e9, nu = 0.2 }  # omit for a rigid flat
     [normal]
-    loads = [25.0, 68.2, ...]       # N, increasing; or pressures = [...] (Pa, σ0 = P/A0)
+    loads = [25.0, 68.2, ...]       # N, increasing; or pressures = [...] (Pa, σ0 = P/A0),
+                                    # or closures = [...] (m, δz from first touch)
+    rotation = "free"               # θ from zero moments; or [θx, θy] (rad) fixed
     [output]
     fields = "all"                  # "none" | "contact" | "all"
 
@@ -211,15 +213,45 @@ def _materials(raw: dict, varied: bool) -> Interface | None:
     return parse_interface("materials", schema.section(raw, "materials"))
 
 
+#: the [normal] keys that give the controls, the dimension each labels and its unit
+CONTROLS = {"loads": ("normal_load", "N"), "pressures": ("mean_pressure", "Pa"), "closures": ("closure", "m")}
+
+
 def _normal(table: dict):
-    schema.only(table, {"loads", "pressures", "method", "operator"}, "normal")
-    if ("loads" in table) == ("pressures" in table):
-        raise InputError("normal.loads", "give either loads (P in N) or pressures (σ0 = P/A0 in Pa), not both")
-    key = "loads" if "loads" in table else "pressures"
-    values = schema.increasing_numbers(f"normal.{key}", table[key], "N" if key == "loads" else "Pa")
+    schema.only(table, {*CONTROLS, "method", "operator", "rotation"}, "normal")
+    given = [key for key in CONTROLS if key in table]
+    if len(given) != 1:
+        both = f", not both {' and '.join(given)}" if given else ""
+        raise InputError("normal.loads", "give exactly one of loads (P in N), pressures (σ0 = P/A0 in Pa) or "
+                                         f"closures (δz from first touch in m){both}")
+    key = given[0]
+    dim, unit = CONTROLS[key]
+    values = schema.increasing_numbers(f"normal.{key}", table[key], unit)
+    rotation = _rotation(table.get("rotation"), key)
     options = NormalOptions(operator=schema.string("normal.operator", table.get("operator", "auto")),
-                            method=schema.string("normal.method", table.get("method", "auto")))
-    return values, "normal_load" if key == "loads" else "mean_pressure", options
+                            method=schema.string("normal.method", table.get("method", "auto")), rotation=rotation)
+    return values, dim, options
+
+
+def _rotation(value, control: str) -> tuple[float, float] | None:
+    """None for ``"free"`` (θ found from zero moments), else the fixed (θx, θy) in rad (Eq. 7).
+
+    Not given: free under load control, (0, 0) under closure control, which
+    imposes the whole rigid motion.
+    """
+    if value is None:
+        value = [0.0, 0.0] if control == "closures" else "free"
+    if value == "free":
+        if control == "closures":
+            raise InputError("normal.rotation", "closure control imposes the whole rigid motion (Eq. 7): give "
+                                                "rotation = [θx, θy] in rad (e.g. [0.0, 0.0]), not \"free\"")
+        return None
+    if isinstance(value, str):
+        raise InputError("normal.rotation", f"must be \"free\" or [θx, θy] in rad, got {value!r}")
+    pair = schema.array("normal.rotation", value)
+    if len(pair) != 2:
+        raise InputError("normal.rotation", f"must be \"free\" or [θx, θy] in rad, got {value!r}")
+    return tuple(schema.number("normal.rotation", v) for v in pair)
 
 
 def _tangential(table: dict, loads: tuple[float, ...], load_dim: str) -> TangentialOptions | None:

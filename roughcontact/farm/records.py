@@ -3,7 +3,7 @@
 A task file has three groups, each a self-contained dataset with its own
 coordinates (``xr.open_dataset(path, group="tangential")`` reads one):
 
-- ``/``: the normal load sweep along ``normal_load`` (or ``mean_pressure``),
+- ``/``: the normal load sweep along ``normal_load`` (or ``mean_pressure``, ``closure``),
   the fields the study stores, and the task's own scalars (``status``,
   ``message``, the composite topography's statistics);
 - ``tangential``: Q sweeps along ``Q_over_fP`` at some loads (Figs. 9–12);
@@ -29,6 +29,7 @@ from .task import TaskOutcome
 LOAD_COORDINATE = {
     "normal_load": {"units": "N", "long_name": "normal load P (Eq. 8), imposed"},
     "mean_pressure": {"units": "Pa", "long_name": "nominal pressure σ0 = P / A_0, imposed"},
+    "closure": {"units": "m", "long_name": "normal approach δz from first touch (Eq. 7), imposed"},
 }
 
 #: per-task status values (the ``status`` variable's flags)

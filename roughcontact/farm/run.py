@@ -141,7 +141,8 @@ def _finish(study: Study, store: TaskStore, attrs: dict, tasks: list) -> dict:
     root.attrs = {**attrs, **{k: v for k, v in root.attrs.items() if k.startswith(kept)}}
     paths = {"netcdf": write_combined(groups, store.combined), "failed": failed, "warned": warned}
     if "contact_fraction" in root and root["contact_fraction"].notnull().any():
-        shown = ensemble_statistics(root[["contact_fraction"]], "seed") if root.sizes.get("seed", 1) > 1 else root
+        curves = [name for name in ("contact_fraction", "normal_load") if name in root.data_vars]
+        shown = ensemble_statistics(root[curves], "seed") if root.sizes.get("seed", 1) > 1 else root
         grid = f", {root.sizes['x']} × {root.sizes['y']} nodes" if "x" in root.sizes else ""
         paths["figure"] = contact_area_vs_load(
             shown, store.output / f"{study.name}_area_vs_load.png",

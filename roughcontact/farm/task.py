@@ -35,14 +35,26 @@ METHODS = ("auto", *_NORMAL_METHODS)
 
 @dataclass(frozen=True)
 class NormalOptions:
-    """How each normal problem is assembled and solved: ``operator`` and ``method``."""
+    """How each normal problem is assembled and solved: ``operator``, ``method`` and the rotation.
+
+    ``rotation`` None lets θ follow from zero moments about the footprint's
+    centroid (load control only); a pair (θx, θy) in rad fixes it (Eq. 7),
+    the moments then being outputs (the centroid path G_P of Fig. 11).
+    """
 
     operator: str = "auto"
     method: str = "auto"
+    rotation: tuple[float, float] | None = None
 
     def __post_init__(self):
         check_choice("normal.operator", self.operator, OPERATORS)
         check_choice("normal.method", self.method, METHODS)
+
+    def solve(self, solver, control: str, value: float):
+        """The normal solution at ``value`` (SI) of ``control``: ``"closure"`` (δz, m) or a load (P, N)."""
+        if control == "closure":
+            return solver.solve_closure(value, self.rotation or (0.0, 0.0))
+        return solver.solve_load(value, rotation=self.rotation)
 
 
 @dataclass(frozen=True)
@@ -80,8 +92,10 @@ class FrettingOptions:
 class Loading:
     """What every task of a study is asked, held by the study and by each of its tasks.
 
-    ``loads`` are P (N) when ``load_dim`` is ``"normal_load"``, nominal
-    pressures σ0 = P/A0 (Pa) when it is ``"mean_pressure"``; ``normal``,
+    ``loads`` are the controls of the normal problem: P (N) when ``load_dim``
+    is ``"normal_load"``, nominal pressures σ0 = P/A0 (Pa) when it is
+    ``"mean_pressure"``, closures δz from first touch (m, Eq. 7) when it is
+    ``"closure"``; ``normal``,
     ``tangential`` and ``fretting`` say how they are solved, ``fields`` what
     is stored (:data:`roughcontact.datasets.FIELDS`).
     """
@@ -176,13 +190,15 @@ class TaskOutcome:
     """What solving a task produced, on every rank of its communicator.
 
     ``normal`` holds the solved loads in order; after a failure (``error``),
-    the loads solved before it. ``sweeps`` and ``cycles`` are keyed by the
-    index of the load they were run at, as are ``fretting_maps``.
+    the loads solved before it. ``loads`` are the normal loads P (N) of
+    those solutions: the imposed ones under load control, the solved ones
+    under closure control. ``sweeps`` and ``cycles`` are keyed by the index
+    of the load they were run at, as are ``fretting_maps``.
     """
 
     task: Task
     topography: Topography | None = None
-    loads: np.ndarray | None = None
+    loads: list = field(default_factory=list)
     normal: list = field(default_factory=list)
     incipient_energy: list = field(default_factory=list)
     sweeps: dict = field(default_factory=dict)
@@ -214,12 +230,13 @@ def solve_task(task: Task, comm) -> TaskOutcome:
         try:
             topography = outcome.topography = task.topography()
             scale = topography.nominal_area if task.load_dim == "mean_pressure" else 1.0
-            outcome.loads = np.asarray(task.loads) * scale
             with open_normal_solver(topography, task.interface, comm, task.normal) as solver:
                 problem = solver.problem
-                for i, load in enumerate(outcome.loads):
-                    normal = solver.solve_load(float(load))
+                for i, control in enumerate(task.loads):
+                    normal = task.normal.solve(solver, task.load_dim, float(control) * scale)
                     outcome.normal.append(normal)
+                    load = normal.load if task.load_dim == "closure" else float(control) * scale
+                    outcome.loads.append(load)
                     if task.fretting is not None and i in task.fretting.at:
                         outcome.fretting_maps[i] = fretting_map(
                             problem, normal, task.fretting.friction, task.fretting.amplitudes,

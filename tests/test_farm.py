@@ -205,8 +205,8 @@ def test_changed_study_under_the_same_name_is_refused(comm, shared_dir):
 
 def test_pressures_zip_and_shift_axes(comm, shared_dir):
     """Loads given as σ0 = P/A0 mean the same on every footprint; zipped axes share one
-    dimension; mated shifts label a ``shift`` dimension; grids that differ keep the fields
-    in the task files only."""
+    dimension; mated shifts label a ``shift`` dimension; fields of grids that differ in spacing
+    start at node (0, 0) of a grid as large as the largest, −1 outside each task's own."""
     raw = tiny(name="axes", tangential={}, axes={"levels": [3, 4], "spacing": [2e-4, 1e-4],
                                                  "mate_shift": [[1e-4, 0.0], [3e-4, 0.0]],
                                                  "zip": ["levels", "spacing"]},
@@ -216,17 +216,51 @@ def test_pressures_zip_and_shift_axes(comm, shared_dir):
     assert [d.name for d in study.dimensions] == ["levels", "shift"]
     summary = run_study(study, comm, shared_dir, log=quiet, quiet=True)
     ds = open_group(summary.paths["netcdf"])
-    assert dict(ds.sizes) == {"levels": 2, "shift": 2, "mean_pressure": 2}
+    assert dict(ds.sizes) == {"levels": 2, "shift": 2, "mean_pressure": 2, "x": 16, "y": 17}
     np.testing.assert_array_equal(ds["spacing"], [2e-4, 1e-4])            # a coordinate on "levels"
     np.testing.assert_array_equal(ds["shift_x"], [1e-4, 3e-4])
     # P = σ0 A0 to the load tolerance (1e-8); A0 = (footprint nodes) s²
     imposed = (ds["mean_pressure"] * ds["nominal_area"]).transpose(*ds["normal_load"].dims)
     np.testing.assert_allclose(ds["normal_load"], imposed, rtol=1e-8)
     np.testing.assert_allclose(ds["nominal_area"], ds["footprint_nodes"] * ds["grid_spacing"] ** 2, rtol=1e-15)
-    assert "contact" not in ds and "grids differ" in ds.attrs["fields_note"]
-    task = xr.open_dataset(TaskStore(shared_dir, "axes").path(3), engine="h5netcdf")
-    assert task["contact"].dtype == np.int8 and task.attrs["axis_levels"] == 4
-    task.close()
+    assert "differ in spacing" in ds.attrs["fields_note"] and "x" not in ds.coords
+    for index, task in enumerate(study.tasks()):
+        where = dict(zip(("levels", "shift"), task.position))
+        with xr.open_dataset(TaskStore(shared_dir, "axes").path(index), engine="h5netcdf") as own:
+            nx, ny = own.sizes["x"], own.sizes["y"]
+            combined = ds["contact"].isel(where).values
+            np.testing.assert_array_equal(combined[:, :nx, :ny], own["contact"].values)
+            assert (combined[:, nx:, :] == -1).all() and (combined[:, :, ny:] == -1).all()
+            assert own["contact"].dtype == np.int8 and own.attrs["axis_levels"] == [3, 4][task.position[0]]
+
+
+def test_shifted_lenses_share_the_frame_of_the_uncut_face(comm, shared_dir):
+    """Mated shifts crop each composite to its own lens: the combined fields lie in the frame of
+    the face before cropping, each task's at its origin (node i of a task is node i + origin/s of
+    the frame), NaN outside its lens; x is that frame's coordinate. Checked against the task
+    files, and against Δh itself: the gap at zero load (the first load is tiny) is the undeformed
+    gap max Δh − Δh, whose maximum sits on the node that touches first."""
+    shifts = [[-2e-4, 0.0], [3e-4, 1e-4]]
+    raw = tiny(name="lenses", tangential={}, axes={"mate_shift": shifts}, normal={"loads": [1e-3, 1.0]},
+               surface={"generator": "midpoint", "levels": 4, "spacing": 1e-4, "rms_height": 1e-5,
+                        "fractal_dimension": 2.3, "seed": 4, "footprint_diameter": 1.5e-3})
+    study = load_study(raw)
+    summary = run_study(study, comm, shared_dir, log=quiet, quiet=True)
+    ds = open_group(summary.paths["netcdf"])
+    assert "differ in extent" in ds.attrs["fields_note"]
+    s = 1e-4
+    for index, task in enumerate(study.tasks()):
+        with xr.open_dataset(TaskStore(shared_dir, "lenses").path(index), engine="h5netcdf") as own:
+            i0 = int(round((float(own["origin_x"]) - float(ds["x"][0])) / s))
+            j0 = int(round((float(own["origin_y"]) - float(ds["y"][0])) / s))
+            nx, ny = own.sizes["x"], own.sizes["y"]
+            placed = ds["gap"].isel(shift=index)
+            np.testing.assert_array_equal(placed.values[:, i0:i0 + nx, j0:j0 + ny], own["gap"].values)
+            outside = np.ones(placed.shape[1:], bool)
+            outside[i0:i0 + nx, j0:j0 + ny] = False
+            assert np.isnan(placed.values[:, outside]).all()
+            np.testing.assert_allclose(float(ds["x"][i0]), float(own["origin_x"]), rtol=0, atol=1e-12)
+            assert np.isfinite(own["gap"].values[0]).sum() == int(own["footprint_nodes"])
 
 
 def test_task_files_read_back_as_written(comm):

@@ -104,14 +104,21 @@ def _task_scalars(outcome: TaskOutcome) -> dict:
 
     topography = outcome.topography
     stats = {"nominal_area": np.nan, "footprint_nodes": np.nan, "grid_spacing": np.nan,
+             "origin_x": np.nan, "origin_y": np.nan,
              "topography_rms_height": np.nan, "topography_rms_slope": np.nan}
     if topography is not None:
+        origin = topography.metadata.get("origin", (0.0, 0.0))
         stats.update(nominal_area=topography.nominal_area, footprint_nodes=float(topography.footprint.sum()),
-                     grid_spacing=topography.spacing, topography_rms_height=rms_height(topography),
+                     grid_spacing=topography.spacing, origin_x=origin[0], origin_y=origin[1],
+                     topography_rms_height=rms_height(topography),
                      topography_rms_slope=rms_slope(topography) if topography.footprint.sum() > 1 else np.nan)
     attrs = {"nominal_area": ("m2", "apparent area A_0 of the footprint"),
              "footprint_nodes": ("1", "nodes of the footprint (unknowns of the normal problem)"),
              "grid_spacing": ("m", "grid spacing s of the composite topography"),
+             "origin_x": ("m", "x of the grid's first node in the frame of the surface before a mated "
+                               "shift cropped it"),
+             "origin_y": ("m", "y of the grid's first node in the frame of the surface before a mated "
+                               "shift cropped it"),
              "topography_rms_height": ("m", "rms height Sq of the composite topography Δh"),
              "topography_rms_slope": ("1", "rms slope Sdq of the composite topography Δh")}
     out = {name: ((), float(value), {"units": attrs[name][0], "long_name": attrs[name][1]})

@@ -237,9 +237,8 @@ def test_pressures_zip_and_shift_axes(comm, shared_dir):
 def test_shifted_lenses_share_the_frame_of_the_uncut_face(comm, shared_dir):
     """Mated shifts crop each composite to its own lens: the combined fields lie in the frame of
     the face before cropping, each task's at its origin (node i of a task is node i + origin/s of
-    the frame), NaN outside its lens; x is that frame's coordinate. Checked against the task
-    files, and against Δh itself: the gap at zero load (the first load is tiny) is the undeformed
-    gap max Δh − Δh, whose maximum sits on the node that touches first."""
+    the frame), NaN outside its lens; x is that frame's coordinate at the task's origin; the finite
+    gaps of a task are its footprint's nodes. Checked against the task files bit for bit."""
     shifts = [[-2e-4, 0.0], [3e-4, 1e-4]]
     raw = tiny(name="lenses", tangential={}, axes={"mate_shift": shifts}, normal={"loads": [1e-3, 1.0]},
                surface={"generator": "midpoint", "levels": 4, "spacing": 1e-4, "rms_height": 1e-5,

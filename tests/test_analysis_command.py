@@ -88,6 +88,22 @@ def test_analyse_a_disc_footprint_and_bad_input(comm, shared_dir):
     assert command.run(arguments(str(shared_dir / "missing.nc")), comm) == 2
 
 
+def test_analyse_refuses_a_file_that_is_not_a_result(comm, shared_dir, capfd):
+    """A NetCDF file of something else (a temperature series) is no result: exit 2 and one line on
+    stderr naming what the measures read, not "measures none" and exit 0."""
+    foreign = shared_dir / "temperature.nc"
+    if comm.Get_rank() == 0:
+        xr.Dataset({"temperature": ("time", np.arange(5.0))}).to_netcdf(foreign, engine="h5netcdf")
+    comm.Barrier()
+    assert command.run(arguments(str(foreign), "--no-figures"), comm) == 2
+    err = capfd.readouterr().err
+    if comm.Get_rank() == 0:
+        lines = [line for line in err.splitlines() if line.strip()]
+        assert len(lines) == 1 and "no measure applies" in lines[0] and "`contact`" in lines[0]
+        assert "temperature" in lines[0]
+    assert not (shared_dir / "temperature.analysis.nc").exists()
+
+
 def test_analyse_an_ensemble_study_file(comm, shared_dir):
     """Two seeds × five loads on a 32² grid: seed s has filled squares of side 8 (s + load index + 1)
     nodes, aligned with the boxes of 1 … 8 nodes (Δσ = 2 exactly), except seed 1's last load, which its

@@ -6,7 +6,9 @@ tangential ones a sweep's variables) and merges them into one dataset. A
 measure whose input is missing or undefined is skipped, and the dataset's
 attribute ``skipped_<measure>`` says why; a measure undefined on some
 samples only (an empty contact set at one load) is NaN there with
-``<measure>_undefined`` = 1.
+``<measure>_undefined`` = 1. Results on which no measure runs (not a
+roughcontact result, or one with nothing to measure) are an
+:class:`~roughcontact.errors.InputError` saying what is missing.
 """
 from __future__ import annotations
 
@@ -118,6 +120,9 @@ def analyse(ds: xr.Dataset, comm=None, footprint: np.ndarray | None = None, load
         dim = next((d for d in ("Q", "Q_over_fP") if sweep is not None and d in sweep.dims), None)
         if dim and "slip_area" in sweep:
             attempt("slip_area", lambda s=sweep, d=dim: slip_area_linearity(s, dim=d, on_error="mark"))
+    if not measures:
+        raise InputError("result", "no measure applies: " + ("; ".join(f"{k}: {v}" for k, v in skipped.items())
+                                                             or _missing_inputs(ds)))
     for measure in measures.values():   # the axes keep the units and long_name the results gave them
         for coord in set(measure.coords) & set(ds.coords):
             measure[coord].attrs = {**ds[coord].attrs, **measure[coord].attrs}
@@ -129,6 +134,15 @@ def analyse(ds: xr.Dataset, comm=None, footprint: np.ndarray | None = None, load
                     **({"bulk_footprint": note} if "closure" in measures else {}),
                     **{k: v for k, v in ds.attrs.items() if k in ("study", "spacing", "description")}}
     return merged, measures
+
+
+def _missing_inputs(ds: xr.Dataset) -> str:
+    """What a results file lacks when no measure can run on it (one line)."""
+    variables = ", ".join(sorted(ds.data_vars)[:8]) or "no variable"
+    return ("it holds none of what the measures read — the contact set `contact` (and the nodal forces "
+            "`force`) on (…, x, y), the `closure` along the load, `incipient_sliding_energy`, `contact_area` "
+            f"along `spacing`, or `slip_area` along Q; it has {variables}. Is it a roughcontact result "
+            "(`roughcontact run`, a study's <name>.nc)?")
 
 
 def views(result: xr.Dataset, core: tuple[str, ...], load_dim: str = LOAD) -> tuple[str, list]:

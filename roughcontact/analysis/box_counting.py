@@ -27,7 +27,7 @@ from ..errors import InputError
 from .boxes import box_coords, box_nodes, box_sums, crop, fitted_boxes
 from .ensemble import map_samples
 from .fitting import CONFIDENCE, fit_variables, power_law_fit
-from .inputs import GRID, LOAD, as_dataset, contact_set, grid_spacing
+from .inputs import GRID, LOAD, as_dataset, contact_set, sample_spacing, task_region
 
 
 def box_counts(mask: np.ndarray, base: int = 2) -> tuple[np.ndarray, np.ndarray]:
@@ -89,5 +89,6 @@ def contact_dimension(source, load_dim: str = LOAD, base: int = 2, box_range: tu
     variable ``undefined`` saying why (:func:`~.ensemble.map_samples`).
     """
     ds = as_dataset(source, load_dim)
-    return map_samples(box_counting, [contact_set(ds)], GRID, on_error=on_error, spacing=grid_spacing(ds),
+    return map_samples(box_counting, [contact_set(ds)], GRID, on_error=on_error, region=task_region(ds),
+                       spacing=sample_spacing(ds),
                        base=base, box_range=box_range, confidence=confidence)

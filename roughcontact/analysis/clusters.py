@@ -29,7 +29,7 @@ from scipy import ndimage
 from ..checks import check_choice
 from ..errors import InputError
 from .ensemble import map_samples
-from .inputs import GRID, LOAD, as_dataset, contact_set, field, grid_spacing
+from .inputs import GRID, LOAD, as_dataset, contact_set, field, sample_spacing, task_region
 
 #: κ of the perimeter correction (Yastrebov, Anciaux & Molinari 2017)
 PERIMETER_CORRECTION = (np.pi - 1.0 + np.log(2.0)) / 24.0
@@ -120,5 +120,6 @@ def cluster_statistics(source, load_dim: str = LOAD, connectivity: int = 4, larg
     """:func:`contact_clusters` of every contact set of ``source``; the loads only if it stores ``force``."""
     ds = as_dataset(source, load_dim)
     arrays = [contact_set(ds)] + ([field(ds, "force")] if "force" in ds else [])
-    return map_samples(contact_clusters, arrays, GRID, on_error=on_error, spacing=grid_spacing(ds),
+    return map_samples(contact_clusters, arrays, GRID, on_error=on_error, region=task_region(ds),
+                       spacing=sample_spacing(ds),
                        connectivity=connectivity, largest=largest)

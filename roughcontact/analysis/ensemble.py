@@ -26,7 +26,7 @@ _ON_ERROR = ("raise", "mark")
 
 
 def map_samples(function: Callable[..., xr.Dataset], arrays: Sequence[xr.DataArray], core_dims: Sequence[str],
-                on_error: str = "raise", **kwargs) -> xr.Dataset:
+                on_error: str = "raise", region: xr.DataArray | None = None, **kwargs) -> xr.Dataset:
     """``function(*values, **kwargs)`` on every sample; results stacked on the sample dimensions.
 
     Parameters
@@ -42,19 +42,41 @@ def map_samples(function: Callable[..., xr.Dataset], arrays: Sequence[xr.DataArr
         ``"raise"``: an :class:`InputError` of one sample propagates.
         ``"mark"``: that sample's variables are NaN and the variable
         ``undefined`` (1 there) says so, with the reasons in its attributes.
+    region
+        Booleans on (some sample dims, *core_dims): the nodes that belong to a
+        sample (a task's own grid within a study's larger one,
+        :func:`~.inputs.task_region`). Each sample's arrays are cut to the
+        bounding box of its region before ``function`` sees them, so a
+        measure of a task stacked with others on a padded grid is the measure
+        of that task alone. A sample without any region node is passed whole.
+    **kwargs
+        Passed to ``function``; a :class:`xarray.DataArray` among them holds
+        one value per sample (e.g. each task's grid spacing) and ``function``
+        gets that sample's value.
     """
     if on_error not in _ON_ERROR:
         raise InputError("on_error", f"must be one of {_ON_ERROR}, got {on_error!r}")
-    arrays = [a.transpose(..., *core_dims) for a in xr.broadcast(*arrays)]
+    per_sample = {k: v for k, v in kwargs.items() if isinstance(v, xr.DataArray)}
+    fixed = {k: v for k, v in kwargs.items() if k not in per_sample}
+    extra_arrays = [region] if region is not None else []
+    broadcast = xr.broadcast(*arrays, *extra_arrays, *per_sample.values())
+    arrays = [a.transpose(..., *core_dims) for a in broadcast[:len(arrays)]]
+    region = broadcast[len(arrays)].transpose(..., *core_dims) if region is not None else None
+    values = {k: v.isel({d: 0 for d in core_dims if d in v.dims})
+              for k, v in zip(per_sample, broadcast[len(arrays) + len(extra_arrays):])}
     extra = [d for d in arrays[0].dims if d not in core_dims]
     if not extra:
-        return function(*[a.values for a in arrays], **kwargs)
+        return _call(function, [a.values for a in arrays], None if region is None else region.values,
+                     {**fixed, **{k: v.values.item() for k, v in values.items()}})
     stacked = [a.stack(sample=extra).transpose("sample", *core_dims) for a in arrays]
+    regions = None if region is None else region.stack(sample=extra).transpose("sample", *core_dims).values
+    samples = {k: v.stack(sample=extra).values for k, v in values.items()}
     parts: list[xr.Dataset | None] = []
     reasons: dict[str, str] = {}
     for i in range(stacked[0].sizes["sample"]):
         try:
-            parts.append(function(*[s.values[i] for s in stacked], **kwargs))
+            parts.append(_call(function, [s.values[i] for s in stacked], None if regions is None else regions[i],
+                               {**fixed, **{k: v[i].item() for k, v in samples.items()}}))
         except InputError as exc:
             if on_error == "raise":
                 raise
@@ -65,7 +87,7 @@ def map_samples(function: Callable[..., xr.Dataset], arrays: Sequence[xr.DataArr
         raise InputError("samples", f"the measure is undefined on every sample: {next(iter(reasons.values()))}")
     blank = template.map(lambda v: xr.full_like(v, np.nan, dtype=float))
     out = xr.concat([blank if p is None else p for p in parts], dim="sample", coords="minimal",
-                    compat="override", combine_attrs="override")
+                    compat="override", combine_attrs="override", join="outer")
     if on_error == "mark":
         out["undefined"] = ("sample", np.array([p is None for p in parts], dtype=np.int8),
                             {"units": "1", "long_name": "1 where the measure is undefined on this sample "
@@ -75,6 +97,17 @@ def map_samples(function: Callable[..., xr.Dataset], arrays: Sequence[xr.DataArr
     out = out.assign_coords(index).unstack("sample")
     carried = {k: c for k, c in arrays[0].coords.items() if k not in out.coords and set(c.dims) <= set(extra)}
     return out.assign_coords(carried).transpose(*extra, ...)
+
+
+def _call(function, values: list[np.ndarray], region: np.ndarray | None, kwargs: dict) -> xr.Dataset:
+    """``function`` on one sample's core values, cut to the bounding box of its ``region``."""
+    if region is not None and region.any():
+        box = []
+        for axis in range(region.ndim):
+            along = np.flatnonzero(region.any(axis=tuple(a for a in range(region.ndim) if a != axis)))
+            box.append(slice(int(along[0]), int(along[-1]) + 1))
+        values = [v[tuple(box)] for v in values]
+    return function(*values, **kwargs)
 
 
 def ensemble_statistics(ds: xr.Dataset, dim: str = "seed", confidence: float = CONFIDENCE) -> xr.Dataset:

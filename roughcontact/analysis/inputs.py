@@ -82,6 +82,28 @@ def grid_spacing(obj: xr.Dataset | xr.DataArray) -> float:
     raise InputError("spacing", "the dataset has neither a 'spacing' attribute nor an x coordinate to read it from")
 
 
+def sample_spacing(ds: xr.Dataset) -> float | xr.DataArray:
+    """The spacing s (m) of the fields: the ``spacing`` attribute, else the tasks' recorded
+    ``grid_spacing`` (one number when every task has the same; each task's along the study's
+    dimensions where a study combines grids of different spacings), else the step of ``x``."""
+    if "spacing" not in ds.attrs and "grid_spacing" in ds.data_vars:
+        spacing = ds["grid_spacing"]
+        values = np.unique(spacing.values[np.isfinite(spacing.values)])
+        if values.size == 1:
+            return require_finite_positive("spacing", float(values[0]))
+        if values.size > 1:
+            return spacing
+    return grid_spacing(ds)
+
+
+def task_region(ds: xr.Dataset) -> xr.DataArray:
+    """The nodes of each task's own grid on (…, x, y): where ``contact`` is 0 or 1 (a study marks nodes
+    outside a task's grid, and loads it did not compute, with −1), else where ``force`` is finite."""
+    if "contact" in ds.variables:
+        return field(ds, "contact") >= 0
+    return np.isfinite(field(ds, "force"))
+
+
 def field(ds: xr.Dataset, name: str) -> xr.DataArray:
     """The variable ``name`` on (…, x, y), x and y last."""
     if name not in ds.variables:

@@ -32,7 +32,7 @@ from ..errors import InputError
 from .boxes import box_coords, box_nodes, box_sums, crop, fitted_boxes
 from .ensemble import map_samples
 from .fitting import CONFIDENCE, check_confidence, line_fit, t_quantile
-from .inputs import GRID, LOAD, as_dataset, contact_set, field, grid_spacing
+from .inputs import GRID, LOAD, as_dataset, contact_set, field, sample_spacing, task_region
 
 #: default moments q
 MOMENTS = np.linspace(-10.0, 10.0, 41)
@@ -151,5 +151,6 @@ def force_spectrum(source, load_dim: str = LOAD, q=MOMENTS, base: int = 2, box_r
     """f(α) of the nodal forces of every result of ``source`` (Fig. 14), forces off the contact set ignored."""
     ds = as_dataset(source, load_dim)
     measure = field(ds, "force").where(contact_set(ds), 0.0)
-    return map_samples(multifractal_spectrum, [measure], GRID, on_error=on_error, spacing=grid_spacing(ds), q=q,
+    return map_samples(multifractal_spectrum, [measure], GRID, on_error=on_error, region=task_region(ds),
+                       spacing=sample_spacing(ds), q=q,
                        base=base, box_range=box_range, confidence=confidence)

@@ -27,7 +27,7 @@ from ..checks import check_integer
 from ..errors import InputError
 from .ensemble import map_samples
 from .fitting import CONFIDENCE, fit_variables, power_law_fit, semilog_fit
-from .inputs import GRID, LOAD, as_dataset, contact_set, field
+from .inputs import GRID, LOAD, as_dataset, contact_set, field, task_region
 
 
 def _fitted_range(name: str, centres: np.ndarray, used: np.ndarray, units: str, what: str) -> dict:
@@ -99,4 +99,4 @@ def contact_force_statistics(source, load_dim: str = LOAD, bins: int = 24, min_c
     """:func:`force_statistics` of every result of ``source`` (results or a dataset)."""
     ds = as_dataset(source, load_dim)
     return map_samples(force_statistics, [field(ds, "force"), contact_set(ds)], GRID,
-                       on_error=on_error, bins=bins, min_count=min_count, confidence=confidence)
+                       on_error=on_error, region=task_region(ds), bins=bins, min_count=min_count, confidence=confidence)

@@ -26,7 +26,7 @@ from ..errors import InputError
 from .boxes import box_coords, box_nodes, box_sums, crop, fitted_boxes
 from .ensemble import map_samples
 from .fitting import CONFIDENCE, LineFit, fit_variables, power_law_fit
-from .inputs import GRID, LOAD, as_dataset, contact_set, field, grid_spacing
+from .inputs import GRID, LOAD, as_dataset, contact_set, field, sample_spacing, task_region
 
 
 def size_effect(sizes, nominal_pressure, confidence: float = CONFIDENCE) -> xr.Dataset:
@@ -109,5 +109,6 @@ def contact_renormalisation(source, load_dim: str = LOAD, base: int = 2, box_ran
     """:func:`renormalisation` of every contact domain of ``source`` (results or a dataset)."""
     ds = as_dataset(source, load_dim)
     return map_samples(renormalisation, [field(ds, "force"), contact_set(ds)], GRID,
-                       on_error=on_error, spacing=grid_spacing(ds), base=base, box_range=box_range,
+                       on_error=on_error, region=task_region(ds), spacing=sample_spacing(ds), base=base,
+                       box_range=box_range,
                        confidence=confidence)

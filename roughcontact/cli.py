@@ -1,5 +1,8 @@
 """Command line: ``roughcontact run [STUDY.toml] [--output DIR] [--quiet] [PETSc options]``.
 
+Also ``roughcontact analyse RESULT.nc`` (docs/analysis.md) and ``roughcontact
+paper [--full] [--only FIG ...] --output DIR`` (docs/paper.md).
+
 Run under MPI as ``mpiexec -n 4 python -m roughcontact run study.toml``: the
 tasks of the study are spread over the ranks (docs/studies.md). Options that
 start with a single dash (``-normal_ksp_monitor``, ``-log_view``) go to
@@ -90,8 +93,17 @@ def _analyse_parser(sub) -> None:
     parser.set_defaults(handler=analyse.run)
 
 
+def _paper_parser(sub) -> None:
+    from .paper import command as paper
+
+    parser = sub.add_parser("paper", help="reproduce the paper's figures and test its claims (docs/paper.md)",
+                            description=paper.__doc__.split("\n")[0])
+    paper.add_arguments(parser)
+    parser.set_defaults(handler=paper.run)
+
+
 #: the subcommands: each adds its parser (with ``handler(args, comm) -> exit status``) to ``sub``
-SUBCOMMANDS = (_run_parser, _analyse_parser)
+SUBCOMMANDS = (_run_parser, _analyse_parser, _paper_parser)
 
 
 def main(argv: list[str] | None = None) -> int:

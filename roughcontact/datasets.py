@@ -50,12 +50,14 @@ def grid_coords(shape: tuple[int, int], spacing: float) -> dict:
             "y": ("y", np.arange(shape[1]) * spacing, {"units": "m", "long_name": "y"})}
 
 
-#: what a sweep stores on the grid besides its scalars: nothing, the contact sets, or every field
-FIELDS = ("none", "contact", "all")
+#: what a sweep stores on the grid besides its scalars, each level holding the one before: nothing,
+#: the contact sets, also the nodal forces (what box counting, histograms and f(α) read), or every field
+FIELDS = ("none", "contact", "force", "all")
+_LEVELS = {level: FIELDS[1:i + 1] for i, level in enumerate(FIELDS)}
 
 _FIELDS = {
     # name: (getter, dtype, units, long_name, stored with)
-    "force": (lambda r: r.force, np.float64, "N", "nodal contact force p̄ (Eq. 9)", "all"),
+    "force": (lambda r: r.force, np.float64, "N", "nodal contact force p̄ (Eq. 9)", "force"),
     "pressure": (lambda r: r.pressure, np.float64, "Pa", "contact pressure p̄ / s²", "all"),
     "gap": (lambda r: r.gap, np.float64, "m", "deformed gap g = H p − w (Eq. 7; NaN off the footprint)", "all"),
     "contact": (lambda r: r.contact, np.int8, "1", "contact set S", "contact"),
@@ -70,7 +72,7 @@ def check_fields(fields: str, parameter: str = "fields") -> str:
 def stored_fields(table: dict, fields: str) -> list[str]:
     """The names of a field table (values ending in the level they belong to) kept at ``fields``."""
     check_fields(fields)
-    keep = {"none": (), "contact": ("contact",), "all": ("contact", "all")}[fields]
+    keep = _LEVELS[fields]
     return [name for name, spec in table.items() if spec[-1] in keep]
 
 
@@ -83,8 +85,8 @@ def normal_sweep_dataset(results: Sequence[NormalResult], spacing: float, dim: s
     the solve); a scalar of the same name is then left out, so a sweep along
     ``dim="normal_load"`` is labelled by the imposed loads, not by the solved
     ones (equal to ``load_tol``). ``fields`` (:data:`FIELDS`) chooses what is
-    stored on (dim, x, y): nothing, the contact set S, or also the nodal force,
-    the pressure and the deformed gap.
+    stored on (dim, x, y): nothing, the contact set S, also the nodal force, or
+    also the pressure and the deformed gap.
     """
     n = len(results)
     data = scalar_variables(results, _SCALARS, dim)

@@ -20,11 +20,11 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGE = ROOT / "roughcontact"
 #: the data path, bottom to top
-FLOORS = ("surfaces", "operators", "normal", "tangential", "analysis", "farm")
+FLOORS = ("surfaces", "operators", "normal", "tangential", "analysis", "farm", "paper")
 #: top-level modules every package may use; they import no subpackage
 BASE = ("errors", "checks", "collective", "petsc", "netcdf", "materials")
 #: packages whose public names docs/api.md lists
-DOCUMENTED = ("normal", "tangential", "analysis", "farm")
+DOCUMENTED = ("normal", "tangential", "analysis", "farm", "paper")
 
 
 def _modules() -> dict[str, tuple[Path, bool]]:

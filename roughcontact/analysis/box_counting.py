@@ -30,16 +30,17 @@ from .fitting import CONFIDENCE, fit_variables, power_law_fit
 from .inputs import GRID, LOAD, as_dataset, contact_set, sample_spacing, task_region
 
 
-def box_counts(mask: np.ndarray, base: int = 2) -> tuple[np.ndarray, np.ndarray]:
-    """Box sides k (nodes) and the number N(k) of boxes holding a node of ``mask``, on the analysis window."""
-    window = crop(np.asarray(mask, dtype=bool), base)
+def box_counts(mask: np.ndarray, base: int = 2, window: str = "origin") -> tuple[np.ndarray, np.ndarray]:
+    """Box sides k (nodes) and the number N(k) of boxes holding a node of ``mask``, on the analysis ``window``."""
+    window = crop(np.asarray(mask, dtype=bool), base, window)
     nodes = box_nodes(window.shape[0], base)
     counts = np.array([np.count_nonzero(box_sums(window, int(k))) for k in nodes])
     return nodes, counts
 
 
 def box_counting(contact: np.ndarray, spacing: float = 1.0, base: int = 2,
-                 box_range: tuple[int, int] | None = None, confidence: float = CONFIDENCE) -> xr.Dataset:
+                 box_range: tuple[int, int] | None = None, confidence: float = CONFIDENCE,
+                 window: str = "origin") -> xr.Dataset:
     """Δσ of one contact set (a boolean array of any dimension, usually (nx, ny)).
 
     Parameters
@@ -54,6 +55,9 @@ def box_counting(contact: np.ndarray, spacing: float = 1.0, base: int = 2,
         (smallest, largest) box side of the fit, in nodes; default 1 … side / base².
     confidence
         Level of the interval.
+    window
+        ``"origin"`` or ``"cover"`` (:mod:`.boxes`): ``"cover"`` for a
+        footprint that is not the square grid (a lens, §3.4).
 
     Raises
     ------
@@ -62,7 +66,7 @@ def box_counting(contact: np.ndarray, spacing: float = 1.0, base: int = 2,
         small for 3 box sizes, or a ``box_range`` beyond the window. A single
         contact node is defined: N = 1 at every size, Δσ = 0 exactly.
     """
-    nodes, counts = box_counts(contact, base)
+    nodes, counts = box_counts(contact, base, window)
     if counts[0] == 0:
         raise InputError("contact", "is empty in the analysis window: no box holds contact, Δσ is undefined")
     fitted = fitted_boxes(nodes, box_range, base)
@@ -82,7 +86,7 @@ def box_counting(contact: np.ndarray, spacing: float = 1.0, base: int = 2,
 
 
 def contact_dimension(source, load_dim: str = LOAD, base: int = 2, box_range: tuple[int, int] | None = None,
-                      confidence: float = CONFIDENCE, on_error: str = "raise") -> xr.Dataset:
+                      confidence: float = CONFIDENCE, on_error: str = "raise", window: str = "origin") -> xr.Dataset:
     """Δσ of every contact set of ``source`` (results or a dataset), e.g. Δσ against load (Fig. 6d).
 
     ``on_error="mark"`` turns an empty contact set into NaN with the
@@ -91,4 +95,4 @@ def contact_dimension(source, load_dim: str = LOAD, base: int = 2, box_range: tu
     ds = as_dataset(source, load_dim)
     return map_samples(box_counting, [contact_set(ds)], GRID, on_error=on_error, region=task_region(ds),
                        spacing=sample_spacing(ds),
-                       base=base, box_range=box_range, confidence=confidence)
+                       base=base, box_range=box_range, confidence=confidence, window=window)

@@ -4,11 +4,17 @@ Nodes are the paper's atoms of surface (§3.1): node (i, j) is the square
 cell [i s, (i + 1) s) × [j s, (j + 1) s). A box of k nodes a side
 (ε = k s) covers k × k cells. With box sizes in powers of a base b
 (k = 1, b, b², …) the boxes of every size tile a square *analysis window*
-exactly when its side is a power of b: the window is the largest square of
-b^m nodes at the grid's origin (nodes beyond it, e.g. the last row and column
-of a 2^n + 1 midpoint grid, are left out and counted in
-``window_nodes``). Boxes that stick out of the domain, which bias counts
-at large sizes, therefore never occur.
+exactly when its side is a power of b. Two windows (``window``):
+
+- ``"origin"`` (default): the largest square of b^m nodes at the grid's
+  origin; nodes beyond it (e.g. the last row and column of a 2^n + 1
+  midpoint grid) are left out and counted in ``window_nodes``. Boxes that
+  stick out of the domain, which bias counts at large sizes, never occur.
+- ``"cover"``: the smallest square of b^m nodes holding the whole grid, the
+  grid at its origin and zeros (no contact, no force) beyond it. For a
+  footprint that is not the square grid (the lens of a shifted core, §3.4)
+  every contact node counts; boxes outside the footprint hold nothing and
+  add nothing to N(ε) or to the moments of f(α).
 
 The default fitted range is k = 1 … side / b²: the two largest sizes (one
 box, and b² boxes) are left out because their counts saturate at the number
@@ -18,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..checks import check_integer
+from ..checks import check_choice, check_integer
 from ..errors import InputError
 
 
@@ -34,11 +40,22 @@ def window_side(shape: tuple[int, ...], base: int = 2) -> int:
     return side
 
 
-def crop(values: np.ndarray, base: int = 2) -> np.ndarray:
-    """The analysis window of ``values`` (any number of dimensions)."""
+#: the analysis windows (see the module's notes)
+WINDOWS = ("origin", "cover")
+
+
+def crop(values: np.ndarray, base: int = 2, window: str = "origin") -> np.ndarray:
+    """The analysis window of ``values`` (any number of dimensions): ``"origin"`` or ``"cover"``."""
     values = np.asarray(values)
-    side = window_side(values.shape, base)
-    return values[(slice(0, side),) * values.ndim]
+    check_choice("window", window, WINDOWS)
+    if window == "origin":
+        side = window_side(values.shape, base)
+        return values[(slice(0, side),) * values.ndim]
+    base = check_integer("base", base, 2)
+    side = base
+    while side < max(values.shape):
+        side *= base
+    return np.pad(values, [(0, side - n) for n in values.shape])
 
 
 def box_nodes(side: int, base: int = 2) -> np.ndarray:

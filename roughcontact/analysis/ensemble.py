@@ -163,3 +163,32 @@ def ensemble_statistics(ds: xr.Dataset, dim: str = "seed", confidence: float = C
     result.attrs["ensemble_dimension"] = dim
     result.attrs["ensemble_confidence"] = confidence
     return result
+
+
+def trend(values: xr.DataArray, dim: str, log: bool = False, name: str | None = None) -> xr.DataArray:
+    """Least-squares slope of ``values`` against the coordinate ``dim`` (its log with ``log``), per sample.
+
+    The per-sample number behind claims such as "Δσ rises with load" (Fig. 6d):
+    reduce its sample dimension (``seed``) with :func:`ensemble_statistics`.
+    NaN points are left out; a sample with fewer than 2 points gives NaN.
+    """
+    if dim not in values.dims:
+        raise InputError("dim", f"{dim!r} is not a dimension of {values.name!r} (dims {values.dims})")
+    x = values[dim].astype(float)
+    if log:
+        if not bool((x > 0).all()):
+            raise InputError(dim, "a trend against log needs positive coordinates")
+        x = np.log(x)
+
+    def slope(y: np.ndarray, abscissa: np.ndarray) -> np.ndarray:
+        keep = np.isfinite(y)
+        if keep.sum() < 2:
+            return np.nan
+        return np.polyfit(abscissa[keep], y[keep], 1)[0]
+
+    out = xr.apply_ufunc(slope, values.astype(float), kwargs={"abscissa": x.values}, input_core_dims=[[dim]],
+                         vectorize=True)
+    label = values.attrs.get("long_name", values.name)
+    return out.rename(name or f"{values.name}_trend").assign_attrs(
+        units="1" if log else f"{values.attrs.get('units', '1')} / {x.attrs.get('units', '1')}",
+        long_name=f"slope of {label} against {'log ' if log else ''}{dim}")

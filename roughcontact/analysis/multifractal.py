@@ -28,6 +28,7 @@ import numpy as np
 import xarray as xr
 from scipy.special import logsumexp
 
+from ..checks import check_integer
 from ..errors import InputError
 from .boxes import box_coords, box_nodes, box_sums, crop, fitted_boxes
 from .ensemble import map_samples
@@ -56,7 +57,8 @@ def _slopes(x: np.ndarray, values: np.ndarray, confidence: float) -> tuple[np.nd
 
 
 def multifractal_spectrum(measure: np.ndarray, spacing: float = 1.0, q=MOMENTS, base: int = 2,
-                          box_range: tuple[int, int] | None = None, confidence: float = CONFIDENCE) -> xr.Dataset:
+                          box_range: tuple[int, int] | None = None, confidence: float = CONFIDENCE,
+                          window: str = "origin") -> xr.Dataset:
     """τ(q), D_q, α(q) and f(α) of a non-negative measure on a grid of any dimension.
 
     Parameters
@@ -67,8 +69,8 @@ def multifractal_spectrum(measure: np.ndarray, spacing: float = 1.0, q=MOMENTS, 
         Grid spacing s (m), for the ``box_size`` coordinate.
     q
         Moments (any finite values, sorted on return).
-    base, box_range
-        Box sizes, as in :func:`~.box_counting.box_counting`.
+    base, box_range, window
+        Box sizes and the analysis window, as in :func:`~.box_counting.box_counting`.
     confidence
         Level of the intervals of α and f.
 
@@ -85,7 +87,7 @@ def multifractal_spectrum(measure: np.ndarray, spacing: float = 1.0, q=MOMENTS, 
     """
     q = _check_moments(q)
     confidence = check_confidence(confidence)
-    window = crop(np.asarray(measure, dtype=float), base)
+    window = crop(np.asarray(measure, dtype=float), base, window)
     if not np.all(np.isfinite(window)) or np.any(window < 0.0):
         raise InputError("measure", "must be finite and >= 0 (forces on the contact set, 0 elsewhere)")
     total = window.sum()
@@ -147,10 +149,68 @@ def multifractal_spectrum(measure: np.ndarray, spacing: float = 1.0, q=MOMENTS, 
 
 
 def force_spectrum(source, load_dim: str = LOAD, q=MOMENTS, base: int = 2, box_range: tuple[int, int] | None = None,
-                   confidence: float = CONFIDENCE, on_error: str = "raise") -> xr.Dataset:
+                   confidence: float = CONFIDENCE, on_error: str = "raise", window: str = "origin") -> xr.Dataset:
     """f(α) of the nodal forces of every result of ``source`` (Fig. 14), forces off the contact set ignored."""
     ds = as_dataset(source, load_dim)
     measure = field(ds, "force").where(contact_set(ds), 0.0)
     return map_samples(multifractal_spectrum, [measure], GRID, on_error=on_error, region=task_region(ds),
                        spacing=sample_spacing(ds), q=q,
-                       base=base, box_range=box_range, confidence=confidence)
+                       base=base, box_range=box_range, confidence=confidence, window=window)
+
+
+def spectrum_nulls(measure: np.ndarray, spacing: float = 1.0, q=MOMENTS, base: int = 2,
+                   box_range: tuple[int, int] | None = None, window: str = "origin", permutations: int = 10,
+                   seed: int = 0) -> xr.Dataset:
+    """Width and maximum of f(α) of ``measure`` beside two nulls on the same support (Fig. 14).
+
+    - *shuffled*: the same nodal masses permuted at random over the same
+      support (``permutations`` draws from ``seed``): keeps the support and
+      the distribution of p̄, destroys their arrangement;
+    - *uniform*: equal masses on the same support: what the support alone gives.
+
+    ``width_excess`` = width − mean shuffled width is the part of the width
+    that the arrangement of the forces makes; a spectrum of a measure that is
+    multifractal only through its support and its histogram has none.
+    """
+    permutations = check_integer("permutations", permutations, 1)
+    measure = np.asarray(measure, dtype=float)
+    options = dict(spacing=spacing, q=q, base=base, box_range=box_range, window=window)
+    real = multifractal_spectrum(measure, **options)
+    support = measure > 0.0
+    rng = np.random.default_rng(seed)
+    shuffled = []
+    for _ in range(permutations):
+        values = measure.copy()
+        values[support] = rng.permutation(measure[support])
+        shuffled.append(multifractal_spectrum(values, **options))
+    uniform = multifractal_spectrum(support.astype(float), **options)
+    widths = np.array([float(s["spectrum_width"]) for s in shuffled])
+    maxima = np.array([float(s["spectrum_maximum"]) for s in shuffled])
+    width = float(real["spectrum_width"])
+    return xr.Dataset({
+        "spectrum_width": ((), width, real["spectrum_width"].attrs),
+        "spectrum_maximum": ((), float(real["spectrum_maximum"]), real["spectrum_maximum"].attrs),
+        "shuffled_width": ((), float(widths.mean()), {"units": "1", "long_name": "mean width of f(α) of the "
+                                                                                "forces shuffled over the support"}),
+        "shuffled_width_std": ((), float(widths.std(ddof=1)) if permutations > 1 else np.nan,
+                               {"units": "1", "long_name": "standard deviation of the shuffled widths"}),
+        "shuffled_maximum": ((), float(maxima.mean()), {"units": "1", "long_name": "mean maximum of f of the "
+                                                                                  "shuffled forces"}),
+        "uniform_width": ((), float(uniform["spectrum_width"]),
+                          {"units": "1", "long_name": "width of f(α) of equal forces on the support"}),
+        "uniform_maximum": ((), float(uniform["spectrum_maximum"]),
+                            {"units": "1", "long_name": "maximum of f of equal forces on the support"}),
+        "width_excess": ((), width - float(widths.mean()),
+                         {"units": "1", "long_name": "width − mean shuffled width (the arrangement's share)"}),
+    })
+
+
+def force_spectrum_nulls(source, load_dim: str = LOAD, q=MOMENTS, base: int = 2,
+                         box_range: tuple[int, int] | None = None, window: str = "origin", permutations: int = 10,
+                         seed: int = 0, on_error: str = "mark") -> xr.Dataset:
+    """:func:`spectrum_nulls` of the nodal forces of every result of ``source``."""
+    ds = as_dataset(source, load_dim)
+    measure = field(ds, "force").where(contact_set(ds), 0.0)
+    return map_samples(spectrum_nulls, [measure], GRID, on_error=on_error, region=task_region(ds),
+                       spacing=sample_spacing(ds), q=q, base=base, box_range=box_range, window=window,
+                       permutations=permutations, seed=seed)

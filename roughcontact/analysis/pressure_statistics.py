@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 import xarray as xr
+from scipy import stats
 
 from ..checks import check_integer
 from ..errors import InputError
@@ -100,3 +101,88 @@ def contact_force_statistics(source, load_dim: str = LOAD, bins: int = 24, min_c
     ds = as_dataset(source, load_dim)
     return map_samples(force_statistics, [field(ds, "force"), contact_set(ds)], GRID,
                        on_error=on_error, region=task_region(ds), bins=bins, min_count=min_count, confidence=confidence)
+
+
+def force_law_comparison(force: np.ndarray, contact: np.ndarray, tail: float = 0.5) -> xr.Dataset:
+    """Exponential (semi-log) against power law for the upper tail of the nodal forces, by likelihood (Fig. 13).
+
+    The paper reads the histogram of p̄ as semi-log, N ∝ exp(−λ p̄), and that of
+    p̄² as a power law, N ∝ (p̄²)^β. Both cannot hold on one tail (a power law
+    in p̄² is one in p̄), and R² of binned fits cannot decide between them.
+    On the forces above their ``tail`` quantile p_min, the maximum-likelihood
+    shifted exponential (λ = 1/(mean − p_min)) and Pareto law (exponent
+    a = 1 + n / Σ ln(p̄/p_min)) are compared by their log-likelihood ratio R
+    (> 0 favours the exponential) and Vuong's normalised statistic, whose
+    two-sided p-value says whether the sign of R is significant. ``beta``
+    is the exponent β = (1 − a)/2 the power law implies for the density of p̄².
+    """
+    force = np.asarray(force, dtype=float)
+    contact = np.asarray(contact, dtype=bool)
+    if force.shape != contact.shape:
+        raise InputError("contact", f"shape {contact.shape} differs from the forces' {force.shape}")
+    if not 0.0 <= tail < 1.0:
+        raise InputError("tail", f"must be a quantile in [0, 1), got {tail!r}")
+    loads = force[contact & np.isfinite(force) & (force > 0)]
+    smallest = float(np.quantile(loads, tail)) if loads.size else np.nan
+    x = loads[loads >= smallest] if loads.size else loads
+    if x.size < 10 or not np.ptp(x) > 0:
+        raise InputError("force", f"{x.size} positive forces in the tail; the comparison needs 10 distinct ones")
+    rate = 1.0 / (x.mean() - smallest)
+    exponent = 1.0 + x.size / np.sum(np.log(x / smallest))
+    log_exponential = np.log(rate) - rate * (x - smallest)
+    log_power = np.log((exponent - 1.0) / smallest) - exponent * np.log(x / smallest)
+    difference = log_exponential - log_power
+    ratio = float(difference.sum())
+    spread = float(difference.std(ddof=1))
+    z = ratio / (np.sqrt(x.size) * spread) if spread > 0 else np.inf * np.sign(ratio)
+    p_value = float(2.0 * stats.norm.sf(abs(z)))
+    preferred = 0 if p_value >= 0.05 else (1 if ratio > 0 else -1)
+    return xr.Dataset({
+        "log_likelihood_ratio": ((), ratio, {"units": "1", "long_name": "log L(exponential) − log L(power law) on "
+                                                                        "the tail"}),
+        "vuong_statistic": ((), float(z), {"units": "1", "long_name": "Vuong's normalised log-likelihood ratio"}),
+        "vuong_p_value": ((), p_value, {"units": "1", "long_name": "two-sided p-value of the ratio's sign"}),
+        "preferred_law": ((), np.int8(preferred), {"units": "1", "long_name": "law the tail prefers at p < 0.05",
+                                                   "flag_values": np.array([-1, 0, 1], dtype=np.int8),
+                                                   "flag_meanings": "power_law undecided exponential"}),
+        "tail_rate": ((), float(rate), {"units": "N-1", "long_name": "λ of the exponential tail"}),
+        "tail_exponent": ((), float(exponent), {"units": "1", "long_name": "exponent a of the Pareto tail of p̄"}),
+        "beta": ((), float((1.0 - exponent) / 2.0), {"units": "1", "long_name": "β of N ∝ (p̄²)^β implied by "
+                                                                                "the Pareto tail"}),
+        "tail_nodes": ((), int(x.size), {"units": "1", "long_name": "contact nodes in the tail"}),
+    })
+
+
+def contact_force_law_comparison(source, load_dim: str = LOAD, tail: float = 0.5,
+                                 on_error: str = "mark") -> xr.Dataset:
+    """:func:`force_law_comparison` of every result of ``source`` (results or a dataset)."""
+    ds = as_dataset(source, load_dim)
+    return map_samples(force_law_comparison, [field(ds, "force"), contact_set(ds)], GRID, on_error=on_error,
+                       region=task_region(ds), tail=tail)
+
+
+def force_uniformity(force: np.ndarray, contact: np.ndarray) -> xr.Dataset:
+    """How evenly the load spreads over the contact nodes (Fig. 13: "more uniform as Δ increases").
+
+    ``force_cv``: standard deviation over mean of p̄ on the contact set (0 for
+    equal forces); ``force_top_share``: the share of the load carried by the
+    1 % most loaded nodes (at least one node); ``contact_nodes``.
+    """
+    force = np.asarray(force, dtype=float)
+    values = force[np.asarray(contact, dtype=bool) & np.isfinite(force)]
+    if values.size < 2 or not values.sum() > 0:
+        raise InputError("contact", f"holds {values.size} node(s) with force; uniformity needs 2")
+    top = max(1, round(0.01 * values.size))
+    return xr.Dataset({
+        "force_cv": ((), float(values.std() / values.mean()), {"units": "1", "long_name": "std / mean of p̄ on S"}),
+        "force_top_share": ((), float(np.sort(values)[-top:].sum() / values.sum()),
+                            {"units": "1", "long_name": "share of P on the 1 % most loaded contact nodes"}),
+        "contact_nodes": ((), int(values.size), {"units": "1", "long_name": "contact nodes"}),
+    })
+
+
+def contact_force_uniformity(source, load_dim: str = LOAD, on_error: str = "mark") -> xr.Dataset:
+    """:func:`force_uniformity` of every result of ``source``."""
+    ds = as_dataset(source, load_dim)
+    return map_samples(force_uniformity, [field(ds, "force"), contact_set(ds)], GRID, on_error=on_error,
+                       region=task_region(ds))

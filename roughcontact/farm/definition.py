@@ -25,7 +25,7 @@ Example (the built-in default, also ``studies/fractal_ensemble.toml``)::
                                     # or closures = [...] (m, δz from first touch)
     rotation = "free"               # θ from zero moments; or [θx, θy] (rad) fixed
     [output]
-    fields = "all"                  # "none" | "contact" | "all"
+    fields = "all"                  # "none" | "contact" | "force" | "all"
 
 A ``[tangential]`` table adds Q sweeps (and one fretting cycle) at some
 loads, a ``[fretting]`` table the fretting map: one cycle at each of

@@ -21,7 +21,7 @@ MEMORY_SHARE = 0.8
 #: bytes per grid node and solve of the fields stored at each level, the same for a normal
 #: solve (force, pressure, gap: float64; contact: int8) and a tangential state (traction,
 #: slip, energy density: float64; zone: int8)
-_FIELD_BYTES = {"none": 0, "contact": 1, "all": 3 * 8 + 1}
+_FIELD_BYTES = {"none": 0, "contact": 1, "force": 8 + 1, "all": 3 * 8 + 1}
 
 
 def available_memory() -> int:

@@ -92,7 +92,7 @@ def test_cover_window_counts_every_node_of_a_lens():
 def test_force_law_comparison_recovers_the_law_it_was_drawn_from():
     """20 000 exponential forces prefer the exponential, 20 000 Pareto forces (a = 3) the power law,
     each at p < 0.01 (Vuong); the Pareto exponent is recovered within 5 % (its MLE's standard error
-    is a/√n ≈ 0.03 on the 10 000-point tail)."""
+    is a/√n ≈ 0.03 on the 10 000-point tail), and with it the exponent of the density of p̄²."""
     rng = np.random.default_rng(7)
     contact = np.ones(20000, dtype=bool)
     exponential = force_law_comparison(rng.exponential(2.0, 20000), contact)
@@ -100,6 +100,8 @@ def test_force_law_comparison_recovers_the_law_it_was_drawn_from():
     pareto = force_law_comparison(rng.pareto(2.0, 20000) + 1.0, contact)
     assert int(pareto["preferred_law"]) == -1 and float(pareto["vuong_p_value"]) < 0.01
     assert float(pareto["tail_exponent"]) == pytest.approx(3.0, rel=0.05)
+    # p̄ with density ∝ p̄^−3 gives p̄² a density ∝ (p̄²)^−2: β = −(a + 1)/2
+    assert float(pareto["beta"]) == pytest.approx(-2.0, rel=0.05)
 
 
 def test_force_uniformity_of_equal_and_of_two_level_forces():

@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from ..checks import check_integer, check_open_interval, require_finite_positive
+from ..checks import check_integer, require_finite_positive
 from ..errors import InputError
 from .ensemble import map_samples
 from .fitting import CONFIDENCE, fit_variables, power_law_fit
@@ -114,15 +114,15 @@ def persson_kappa(ds: xr.Dataset, load_dim: str = LOAD, modulus: float | None = 
 
 
 def _load(ds: xr.Dataset, load_dim: str) -> xr.DataArray:
-    """The load P along ``load_dim``: the coordinate, or the solved load under closure control."""
+    """The load P along ``load_dim``: the coordinate under load control, the solved load under closure control."""
     if load_dim not in ds.dims:
         raise InputError("load_dim", f"{load_dim!r} is not a dimension of the dataset (dims {tuple(ds.dims)})")
-    if load_dim == "normal_load":
-        return ds["normal_load"]
-    if "normal_load" in ds:
-        return ds["normal_load"]
-    raise InputError("dataset", f"holds no normal_load along {load_dim!r}")
+    if "normal_load" not in ds:
+        raise InputError("dataset", f"holds no normal_load along {load_dim!r}")
+    return ds["normal_load"]
 
 
 def _regime(max_fraction: float, min_nodes: int) -> tuple[float, int]:
-    return check_open_interval("max_fraction", max_fraction, 0.0, 1.0 + 1e-12), check_integer("min_nodes", min_nodes, 1)
+    if isinstance(max_fraction, bool) or not 0.0 < float(max_fraction) <= 1.0:
+        raise InputError("max_fraction", f"must be a contact fraction in (0, 1], got {max_fraction!r}")
+    return float(max_fraction), check_integer("min_nodes", min_nodes, 1)

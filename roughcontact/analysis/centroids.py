@@ -40,45 +40,41 @@ def centroid_paths(root: xr.Dataset, tangential: xr.Dataset, centre_x: xr.DataAr
     if "Q_over_fP" not in tangential.dims:
         raise InputError("tangential", "has no Q_over_fP dimension: not a tangential group")
     load = require_finite_positive("load", load)
-    friction = require_finite_positive("friction", tangential.attrs.get("friction", root.attrs.get("friction", 0)))
+    loads = root[load_dim].values
+    index = {float(p): j for j, p in enumerate(loads)}
+    if load not in index or load not in tangential[load_dim].values:
+        raise InputError("load", f"P = {load:g} N is not a load of both the root sweep and the tangential group")
     radius = np.sqrt(root["nominal_area"] / np.pi)
     gp_x, gp_y = root["centroid_x"], root["centroid_y"]
     gq_x = tangential["centroid_x"].sel({load_dim: load})
     gq_y = tangential["centroid_y"].sel({load_dim: load})
     pressure_distance = np.hypot(gp_x - centre_x, gp_y - centre_y) / radius
     shear_distance = np.hypot(gq_x - centre_x, gq_y - centre_y) / radius
-    # the corrective loads P* = P − Q/f of the sweep, matched to the loads of the root sweep
-    corrective = load * (1.0 - tangential["Q_over_fP"].values)
-    loads = root[load_dim].values
-    match = np.array([np.flatnonzero(np.isclose(loads, p, rtol=1e-9, atol=0.0))[:1] for p in corrective],
-                     dtype=object)
-    pairs = [(k, int(m[0])) for k, m in enumerate(match) if len(m) and 0.0 < corrective[k] < load]
-    at = int(np.flatnonzero(np.isclose(loads, load, rtol=1e-9, atol=0.0))[0])
+    # the corrective loads P* = P − Q/f of the sweep that are loads of the root sweep too (0 < P* < P)
+    full = {load_dim: index[load]}
     gap, identity = [], []
-    for k, j in pairs:
-        gq = np.stack([gq_x.isel(Q_over_fP=k), gq_y.isel(Q_over_fP=k)])
-        gp_star = np.stack([gp_x.isel({load_dim: j}), gp_y.isel({load_dim: j})])
-        gp_full = np.stack([gp_x.isel({load_dim: at}), gp_y.isel({load_dim: at})])
-        p_star = corrective[k]
-        predicted = (load * gp_full - p_star * gp_star) / (load - p_star)
-        gap.append(np.hypot(*(gq - gp_star)) / radius.values)
-        identity.append(np.hypot(*(gq - predicted)) / radius.values)
-    dims = tuple(d for d in gp_x.dims if d != load_dim)
+    for k, ratio in enumerate(tangential["Q_over_fP"].values):
+        p_star = load * (1.0 - ratio)
+        j = next((index[p] for p in index if 0.0 < p_star < load and np.isclose(p, p_star, rtol=1e-9, atol=0.0)),
+                 None)
+        if j is None:
+            continue
+        star = {load_dim: j}
+        predicted_x = (load * gp_x.isel(full) - p_star * gp_x.isel(star)) / (load - p_star)
+        predicted_y = (load * gp_y.isel(full) - p_star * gp_y.isel(star)) / (load - p_star)
+        gq = (gq_x.isel(Q_over_fP=k), gq_y.isel(Q_over_fP=k))
+        gap.append(np.hypot(gq[0] - gp_x.isel(star), gq[1] - gp_y.isel(star)) / radius)
+        identity.append(np.hypot(gq[0] - predicted_x, gq[1] - predicted_y) / radius)
     below = root[load_dim] <= load
-    start = pressure_distance.where(below).isel({load_dim: 0})
     excursion = np.hypot(gp_x - gp_x.isel({load_dim: 0}), gp_y - gp_y.isel({load_dim: 0})).where(below) / radius
-    out = xr.Dataset({
+    nothing = xr.full_like(radius, np.nan)   # no corrective load is a load of the root sweep
+    return xr.Dataset({
         "shear_centroid_distance": shear_distance.assign_attrs(units="1", long_name="|G_Q − C| / R"),
         "pressure_centroid_distance": pressure_distance.assign_attrs(units="1", long_name="|G_P − C| / R"),
         "pressure_path_length": excursion.max(load_dim).assign_attrs(
             units="1", long_name="largest |G_P(P') − G_P(P_min)| / R over P' ≤ P"),
-        "pressure_centroid_start": start.assign_attrs(units="1", long_name="|G_P − C| / R at the smallest load"),
+        "reverse_path_gap": (xr.concat(gap, "pair").max("pair") if gap else nothing).assign_attrs(
+            units="1", long_name="largest |G_Q(Q) − G_P(P − Q/f)| / R"),
+        "increment_identity_error": (xr.concat(identity, "pair").max("pair") if identity else nothing).assign_attrs(
+            units="1", long_name="largest |G_Q − (P G_P(P) − P* G_P(P*)) / (P − P*)| / R"),
     })
-    if pairs:
-        out["reverse_path_gap"] = (dims, np.nanmax(np.stack(gap), axis=0),
-                                   {"units": "1", "long_name": "largest |G_Q(Q) − G_P(P − Q/f)| / R"})
-        out["increment_identity_error"] = (dims, np.nanmax(np.stack(identity), axis=0),
-                                           {"units": "1", "long_name": "largest |G_Q − (P G_P(P) − P* G_P(P*)) / "
-                                                                       "(P − P*)| / R"})
-    out.attrs["friction"] = friction
-    return out

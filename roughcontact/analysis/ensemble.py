@@ -18,7 +18,7 @@ import xarray as xr
 from scipy import stats
 
 from ..errors import InputError
-from .fitting import CONFIDENCE, check_confidence
+from .fitting import CONFIDENCE, check_confidence, line_fit
 
 #: suffixes of the per-sample uncertainty variables the ensemble interval replaces
 _PER_SAMPLE_UNCERTAINTY = ("_stderr", "_lower", "_upper")
@@ -170,7 +170,8 @@ def trend(values: xr.DataArray, dim: str, log: bool = False, name: str | None = 
 
     The per-sample number behind claims such as "Δσ rises with load" (Fig. 6d):
     reduce its sample dimension (``seed``) with :func:`ensemble_statistics`.
-    NaN points are left out; a sample with fewer than 2 points gives NaN.
+    The slope is :func:`~.fitting.line_fit`'s over the finite points; a sample
+    with fewer than 3 of them gives NaN.
     """
     if dim not in values.dims:
         raise InputError("dim", f"{dim!r} is not a dimension of {values.name!r} (dims {values.dims})")
@@ -180,11 +181,12 @@ def trend(values: xr.DataArray, dim: str, log: bool = False, name: str | None = 
             raise InputError(dim, "a trend against log needs positive coordinates")
         x = np.log(x)
 
-    def slope(y: np.ndarray, abscissa: np.ndarray) -> np.ndarray:
+    def slope(y: np.ndarray, abscissa: np.ndarray) -> float:
         keep = np.isfinite(y)
-        if keep.sum() < 2:
+        try:
+            return line_fit(abscissa[keep], y[keep], name=str(values.name)).slope
+        except InputError:
             return np.nan
-        return np.polyfit(abscissa[keep], y[keep], 1)[0]
 
     out = xr.apply_ufunc(slope, values.astype(float), kwargs={"abscissa": x.values}, input_core_dims=[[dim]],
                          vectorize=True)

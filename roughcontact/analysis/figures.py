@@ -22,7 +22,8 @@ MAX_CURVES = 6
 LOAD_COORDINATES = ("normal_load", "mean_pressure")
 
 
-def _pyplot():
+def pyplot():
+    """matplotlib.pyplot on the non-interactive Agg backend (figures are written to files, never shown)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -63,7 +64,7 @@ def _finish(fig, path, title: str, legends=()) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)
-    _pyplot().close(fig)
+    pyplot().close(fig)
     return path
 
 
@@ -83,7 +84,7 @@ def _label(ds: xr.Dataset, name: str) -> str:
 
 def box_counting_figure(ds: xr.Dataset, path, title: str = "") -> Path:
     """N(ε) against ε with the fitted lines (Fig. 2), and Δσ against the sample dimension (Fig. 6d)."""
-    plt = _pyplot()
+    plt = pyplot()
     samples = _samples(ds, ("box_size",))
     fig, axes = plt.subplots(1, 2 if len(samples) > 1 else 1, figsize=(10 if len(samples) > 1 else 5, 4),
                              constrained_layout=True, squeeze=False)
@@ -109,7 +110,7 @@ def box_counting_figure(ds: xr.Dataset, path, title: str = "") -> Path:
 
 def renormalisation_figure(ds: xr.Dataset, path, title: str = "") -> Path:
     """log σ0 against log b with the Eq. 13 line, slope −(2 − Δσ) (Fig. 3a)."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(5, 4), constrained_layout=True)
     for label, sample in _samples(ds, ("box_size",)):
         _loglog_fit(ax, sample["box_size"].values, sample["window_pressure"].values,
@@ -123,7 +124,7 @@ def closure_figure(ds: xr.Dataset, path, load_dim: str = "normal_load", title: s
     """Load against effective closure with the fitted hyperbola and its asymptote (Figs. 5c, 8a)."""
     from .closure import hyperbola
 
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(5, 4), constrained_layout=True)
     load = ds[load_dim].values
     closure = ds["effective_closure"].values
@@ -140,7 +141,7 @@ def closure_figure(ds: xr.Dataset, path, load_dim: str = "normal_load", title: s
 
 def force_statistics_figure(ds: xr.Dataset, path, title: str = "") -> Path:
     """Histograms with the semi-log law, cumulative distributions, and n(p̄²) with its power law (Fig. 13)."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(1, 3, figsize=(13, 4), constrained_layout=True)
     for label, sample in _samples(ds, ("force_bin", "force_edge", "square_bin")):
         centre, count = sample["force_bin_centre"].values, sample["force_count"].values
@@ -166,7 +167,7 @@ def force_statistics_figure(ds: xr.Dataset, path, title: str = "") -> Path:
 
 def spectrum_figure(ds: xr.Dataset, path, title: str = "") -> Path:
     """f(α) for each sample, with the width and the maximum against Δσ of the support (Fig. 14)."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(5, 4), constrained_layout=True)
     for label, sample in _samples(ds, ("q", "box_size")):
         ax.plot(sample["holder_exponent"], sample["singularity_spectrum"], "o-", ms=3,
@@ -178,7 +179,7 @@ def spectrum_figure(ds: xr.Dataset, path, title: str = "") -> Path:
 
 def clusters_figure(ds: xr.Dataset, path, title: str = "") -> Path:
     """Cluster size distribution (log–log) and the load fraction of the largest clusters."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
     for label, sample in _samples(ds, ("cluster_size", "largest")):
         count = sample["cluster_size_count"].values.astype(float)
@@ -193,7 +194,7 @@ def clusters_figure(ds: xr.Dataset, path, title: str = "") -> Path:
 
 def power_law_figure(x: xr.DataArray, y: xr.DataArray, fit: xr.Dataset, name: str, path, title: str = "") -> Path:
     """One log–log power law y ∝ x^m with its fitted line: A_r against s (Fig. 1d) or E_f against P (Fig. 12)."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(5, 4), constrained_layout=True)
     _loglog_fit(ax, np.asarray(x, float), np.asarray(y, float), np.ones(np.size(x), bool),
                 f"exponent {_interval(fit, name)}")
@@ -204,7 +205,7 @@ def power_law_figure(x: xr.DataArray, y: xr.DataArray, fit: xr.Dataset, name: st
 
 def slip_area_figure(ds: xr.Dataset, fit: xr.Dataset, path, title: str = "") -> Path:
     """Stick and slip areas against Q with the fitted slip line (Fig. 10a)."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(5, 4), constrained_layout=True)
     q = ds["Q"].values
     ax.plot(q, ds["slip_area"], "o", label=f"slip area, R² = {float(fit['slip_area_rate_r2']):.4f}")
@@ -224,7 +225,7 @@ def contact_area_vs_load(ds: xr.Dataset, path, title: str = "") -> Path:
     ensemble mean with its confidence band. One curve per fractal dimension Δ,
     or per combination of the other study dimensions.
     """
-    plt = _pyplot()
+    plt = pyplot()
     dim = next(name for name in (*LOAD_COORDINATES, "closure") if name in ds.dims)
     # under closure control the load is an output, one curve of it per sample
     load = ds["normal_load"] if dim == "closure" else ds[dim]

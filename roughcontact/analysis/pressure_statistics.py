@@ -114,7 +114,9 @@ def force_law_comparison(force: np.ndarray, contact: np.ndarray, tail: float = 0
     a = 1 + n / Σ ln(p̄/p_min)) are compared by their log-likelihood ratio R
     (> 0 favours the exponential) and Vuong's normalised statistic, whose
     two-sided p-value says whether the sign of R is significant. ``beta``
-    is the exponent β = (1 − a)/2 the power law implies for the density of p̄².
+    is the exponent β = −(a + 1)/2 the power law implies for the density of
+    p̄² (N(p̄²) ∝ (p̄²)^β, the paper's reading, with q = p̄²: n_q(q) =
+    n_p(√q) / (2√q)).
     """
     force = np.asarray(force, dtype=float)
     contact = np.asarray(contact, dtype=bool)
@@ -136,7 +138,7 @@ def force_law_comparison(force: np.ndarray, contact: np.ndarray, tail: float = 0
     spread = float(difference.std(ddof=1))
     z = ratio / (np.sqrt(x.size) * spread) if spread > 0 else np.inf * np.sign(ratio)
     p_value = float(2.0 * stats.norm.sf(abs(z)))
-    preferred = 0 if p_value >= 0.05 else (1 if ratio > 0 else -1)
+    preferred = (1 if ratio > 0 else -1) if p_value < 0.05 else 0      # NaN p: undecided
     return xr.Dataset({
         "log_likelihood_ratio": ((), ratio, {"units": "1", "long_name": "log L(exponential) − log L(power law) on "
                                                                         "the tail"}),
@@ -147,8 +149,8 @@ def force_law_comparison(force: np.ndarray, contact: np.ndarray, tail: float = 0
                                                    "flag_meanings": "power_law undecided exponential"}),
         "tail_rate": ((), float(rate), {"units": "N-1", "long_name": "λ of the exponential tail"}),
         "tail_exponent": ((), float(exponent), {"units": "1", "long_name": "exponent a of the Pareto tail of p̄"}),
-        "beta": ((), float((1.0 - exponent) / 2.0), {"units": "1", "long_name": "β of N ∝ (p̄²)^β implied by "
-                                                                                "the Pareto tail"}),
+        "beta": ((), float(-(exponent + 1.0) / 2.0), {"units": "1", "long_name": "β of N(p̄²) ∝ (p̄²)^β implied "
+                                                                                  "by the Pareto tail"}),
         "tail_nodes": ((), int(x.size), {"units": "1", "long_name": "contact nodes in the tail"}),
     })
 

@@ -34,6 +34,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args, comm) -> int:
+    from ..errors import RoughContactError
     from ..farm import load_study, run_study
     from .registry import FIGURES, needed, studies_folder
     from .results import study_files
@@ -44,10 +45,8 @@ def run(args, comm) -> int:
     rank = comm.Get_rank()
     timings = _previous_timings(output) if rank == 0 else {}
     failed = 0
-    for i, study in enumerate(chosen, 1):
+    for i, study in enumerate(() if args.no_run else chosen, 1):
         definition = load_study(files[study.key])
-        if args.no_run:
-            continue
         started = time.perf_counter()
         summary = run_study(definition, comm, output, log=lambda *a, **k: None, quiet=True)
         seconds = time.perf_counter() - started
@@ -61,20 +60,27 @@ def run(args, comm) -> int:
                 timings[definition.name] = {"tasks": summary.tasks, "solved": summary.solved,
                                             "seconds": round(seconds, 1), "ranks": comm.Get_size()}
     status = 0
-    if rank == 0:
-        status = _report(args, output, files, [f for f in (args.only or FIGURES)], timings)
+    if rank == 0:      # the other ranks wait in the broadcast: a bad input here must not leave them hanging
+        try:
+            status = _report(args, output, files, list(args.only or FIGURES), timings)
+        except RoughContactError as exc:
+            print(f"roughcontact: error: {exc}", file=sys.stderr)
+            status = 2
     status = comm.bcast(status, root=0)
     return status or (1 if failed else 0)
 
 
 def _previous_timings(output: Path) -> dict:
+    """The per-study times an earlier run recorded (a resumed study keeps the time of the run that solved it)."""
     path = output / "timings.json"
-    if path.exists():
-        try:
-            return json.loads(path.read_text()).get("studies", {})
-        except (OSError, ValueError):
-            return {}
-    return {}
+    if not path.exists():
+        return {}
+    try:
+        return json.loads(path.read_text()).get("studies", {})
+    except (OSError, ValueError) as exc:
+        print(f"roughcontact: warning: {path} is unreadable ({exc}); it is rewritten with this run's times",
+              file=sys.stderr)
+        return {}
 
 
 def _report(args, output: Path, files: dict, figures: list[int], timings: dict) -> int:

@@ -16,18 +16,18 @@ import xarray as xr
 
 from .. import analysis
 from ..analysis.ensemble import ensemble_statistics
-from ..analysis.figures import _pyplot
+from ..analysis.figures import pyplot
 from ..analysis.maps import draw_contact_map, draw_force_map, draw_height_map, draw_zone_map, height_field
 from ..analysis.multifractal import multifractal_spectrum
 from .claims import CLOSURE, LOAD_P, RESOLUTION_LOAD, ROCK_LOAD, by_shift
-from .reference import bulk_compliances, footprint_centres, hertz_forces
+from .reference import bulk_compliances, contact_dimensions, footprint_centres, hertz_forces
 from .results import PaperResults, nearest
 
 Q_MOMENTS = np.linspace(-5.0, 5.0, 21)
 
 
 def _figure(panels: int, width: float = 3.6, height: float = 3.3, columns: int | None = None):
-    plt = _pyplot()
+    plt = pyplot()
     columns = columns or panels
     rows = -(-panels // columns)
     fig, axes = plt.subplots(rows, columns, figsize=(width * columns, height * rows), constrained_layout=True,
@@ -41,7 +41,7 @@ def _figure(panels: int, width: float = 3.6, height: float = 3.3, columns: int |
 def _save(fig, path: Path, title: str) -> Path:
     fig.suptitle(title, fontsize=10)
     fig.savefig(path, dpi=110)
-    _pyplot().close(fig)
+    pyplot().close(fig)
     return path
 
 
@@ -149,8 +149,7 @@ def fig03(r: PaperResults, path: Path) -> Path:
 def fig04(r: PaperResults, path: Path) -> Path:
     ds = nearest(r.root["closure"], closure=CLOSURE).sel(seed=1)
     fig, axes = _figure(6, columns=3)
-    dims = analysis.contact_dimension(nearest(r.root["closure"], closure=CLOSURE), on_error="mark")
-    stats = ensemble_statistics(dims[["contact_dimension"]])
+    stats = ensemble_statistics(nearest(contact_dimensions(r, "closure"), closure=CLOSURE).to_dataset())
     heights = [height_field(_task(r, "closure", fractal_dimension=d, seed=1).topography())
                for d in ds["fractal_dimension"].values]
     limit = max(float(np.nanmax(np.abs(h.values))) for h in heights) * 1e6
@@ -173,7 +172,7 @@ def fig05(r: PaperResults, path: Path) -> Path:
     _bands(axes[0], stats, "contact_fraction", "normal_load", "fractal_dimension", _delta, x_scale=1e-3)
     axes[0].set(xlabel="P [kN]", ylabel="A_r / A_0")
     _tag(axes[0], "a", "A_r against P, s = L/256")
-    res = r.root["resolution"].sel(fractal_dimension=2.1, method="nearest")
+    res = nearest(r.root["resolution"], fractal_dimension=2.1)
     stats = ensemble_statistics(res[["contact_area"]])
     spacing = res["grid_spacing"].isel(seed=0).values * 1e3
     _bands(axes[1], stats.assign_coords(coarsening=spacing), "contact_area", "normal_load", "coarsening",
@@ -201,13 +200,12 @@ def fig05(r: PaperResults, path: Path) -> Path:
 def fig06(r: PaperResults, path: Path) -> Path:
     ds = r.root["load"]
     fig, axes = _figure(4)
-    sample = ds.sel(fractal_dimension=2.3, method="nearest").sel(seed=1)
+    sample = nearest(ds, fractal_dimension=2.3).sel(seed=1)
     for ax, letter, p in zip(axes, "abc", (113.0, LOAD_P, 8678.0)):
         one = nearest(sample, normal_load=p)
         draw_contact_map(ax, one["contact"])
         _tag(ax, letter, f"Δ = 2.3, P = {p:g} N, A_r/A_0 = {float(one['contact_fraction']):.3f}")
-    dims = analysis.contact_dimension(ds, on_error="mark")
-    stats = ensemble_statistics(dims[["contact_dimension"]])
+    stats = ensemble_statistics(contact_dimensions(r, "load").to_dataset())
     for d in stats["fractal_dimension"].values:
         s = stats.sel(fractal_dimension=d)
         line, = axes[3].semilogx(ds["normal_load"], s["contact_dimension"], "o-", ms=3, label=_delta(d))
@@ -290,8 +288,8 @@ def _busiest_window(zone: np.ndarray, side: int) -> tuple[slice, slice]:
 
 
 def fig09(r: PaperResults, path: Path) -> Path:
-    t = nearest(r.tangential["load"], normal_load=LOAD_P).sel(fractal_dimension=2.3, method="nearest").sel(seed=1)
-    root = nearest(r.root["load"], normal_load=LOAD_P).sel(fractal_dimension=2.3, method="nearest").sel(seed=1)
+    t = nearest(r.tangential["load"], normal_load=LOAD_P, fractal_dimension=2.3).sel(seed=1)
+    root = nearest(r.root["load"], normal_load=LOAD_P, fractal_dimension=2.3).sel(seed=1)
     fig, axes = _figure(4)
     for ax, letter, q in zip(axes, "ab", (0.3, 0.7)):
         draw_zone_map(ax, nearest(t, Q_over_fP=q)["zone"])
@@ -417,7 +415,7 @@ def fig14(r: PaperResults, path: Path) -> Path:
                                           on_error="mark")
         _mean_spectrum(axes[1], spectra, f"P = {p / 1e3:g} kN")
     _tag(axes[1], "b", "v = 2 mm, increasing P")
-    one = nearest(r.root["load"], normal_load=LOAD_P).sel(fractal_dimension=2.3, method="nearest").sel(seed=1)
+    one = nearest(r.root["load"], normal_load=LOAD_P, fractal_dimension=2.3).sel(seed=1)
     force = np.where(one["contact"].values == 1, one["force"].values, 0.0)
     shuffled = force.copy()
     support = force > 0

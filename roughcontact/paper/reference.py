@@ -13,6 +13,7 @@ import numpy as np
 import xarray as xr
 from mpi4py import MPI
 
+from .. import analysis
 from ..analysis.multifractal import multifractal_spectrum
 from ..analysis.petsc import footprint_bulk_compliance
 from ..analysis.report import interface_from_attrs
@@ -23,36 +24,50 @@ from .results import PaperResults
 HERTZ_NODES, HERTZ_RADIUS_NODES = 257, 64
 
 
-def _first_seed_tasks(results: PaperResults, key: str):
-    """The first task (first seed) of each position of the study's first dimension."""
-    seen = {}
-    for task in results.tasks(key):
-        seen.setdefault(task.position[0], task)
-    return [seen[i] for i in sorted(seen)]
+def contact_dimensions(results: PaperResults, key: str) -> xr.DataArray:
+    """Δσ of every contact set of study ``key`` (undefined sets NaN), computed once per report."""
+    ds = results.root[key]
+    load_dim = ds.attrs.get("load_dimension", "normal_load")
+    return results.cached(("contact_dimension", key), lambda: analysis.contact_dimension(
+        ds, load_dim=load_dim, on_error="mark")["contact_dimension"])
 
 
 def bulk_compliances(results: PaperResults, key: str) -> dict[int, float]:
-    """c (m/N) of the footprint of each position along the study's first dimension (seeds share footprints)."""
-    interface = interface_from_attrs(results.root[key].attrs)
-    out = {}
-    for i, task in enumerate(_first_seed_tasks(results, key)):
-        topography = task.topography()
-        out[i] = footprint_bulk_compliance(topography.footprint, topography.spacing, interface, MPI.COMM_SELF).mean
-    return out
+    """c (m/N) of the footprint of each position along the study's first dimension (seeds share footprints).
+
+    One operator per distinct footprint: the square grids of a Δ axis share one, each mated shift has its lens.
+    """
+    def compute():
+        interface = interface_from_attrs(results.root[key].attrs)
+        first_seed = {}
+        for task in results.tasks(key):
+            first_seed.setdefault(task.position[0], task)
+        by_footprint, out = {}, {}
+        for i in sorted(first_seed):
+            topography = first_seed[i].topography()
+            shape = (topography.footprint.shape, topography.spacing, topography.footprint.tobytes())
+            if shape not in by_footprint:
+                by_footprint[shape] = footprint_bulk_compliance(topography.footprint, topography.spacing, interface,
+                                                                MPI.COMM_SELF).mean
+            out[i] = by_footprint[shape]
+        return out
+    return results.cached(("bulk_compliance", key), compute)
 
 
 def footprint_centres(results: PaperResults, key: str) -> tuple[xr.DataArray, xr.DataArray]:
     """Centroid C (m) of each task's footprint in its grid frame, on the study's dimensions."""
-    ds = results.root[key]
-    dims = tuple(d for d in ds["status"].dims)
-    cx = xr.full_like(ds["status"], np.nan, dtype=float)
-    cy = xr.full_like(ds["status"], np.nan, dtype=float)
-    for task in results.tasks(key):
-        topography = task.topography()
-        nodes = np.argwhere(topography.footprint) * topography.spacing
-        cx[dict(zip(dims, task.position))] = nodes[:, 0].mean()
-        cy[dict(zip(dims, task.position))] = nodes[:, 1].mean()
-    return cx, cy
+    def compute():
+        ds = results.root[key]
+        dims = ds["status"].dims
+        cx = xr.full_like(ds["status"], np.nan, dtype=float)
+        cy = xr.full_like(ds["status"], np.nan, dtype=float)
+        for task in results.tasks(key):
+            topography = task.topography()
+            nodes = np.argwhere(topography.footprint) * topography.spacing
+            cx[dict(zip(dims, task.position))] = nodes[:, 0].mean()
+            cy[dict(zip(dims, task.position))] = nodes[:, 1].mean()
+        return cx, cy
+    return results.cached(("footprint_centre", key), compute)
 
 
 def hertz_forces(nodes: int = HERTZ_NODES, radius_nodes: int = HERTZ_RADIUS_NODES) -> np.ndarray:

@@ -9,13 +9,16 @@ differences across Δ are taken per seed before the interval.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
+import h5py
 import numpy as np
 import xarray as xr
-from scipy import stats
 
+from ..analysis.ensemble import ensemble_statistics
 from ..analysis.fitting import CONFIDENCE
 from ..errors import InputError
 from ..farm import load_study
@@ -24,27 +27,32 @@ from .registry import STUDIES, PaperStudy
 
 @dataclass
 class PaperResults:
-    """Study datasets by key: ``root[key]`` and ``tangential[key]`` (None without sweeps)."""
+    """Study datasets by key: ``root[key]`` and ``tangential[key]`` (None without sweeps).
+
+    :meth:`cached` keeps what several claims and figures read (Δσ of every
+    contact set of a study, bulk compliances, footprint centroids) so that
+    each is computed once per report.
+    """
 
     folder: Path
     studies: dict[str, Path]
     root: dict[str, xr.Dataset] = field(default_factory=dict)
     tangential: dict[str, xr.Dataset | None] = field(default_factory=dict)
+    _cache: dict = field(default_factory=dict, repr=False)
 
     @classmethod
     def open(cls, folder: Path, study_files: dict[str, Path]) -> PaperResults:
         """The combined files ``<folder>/<name>.nc`` of the studies in ``study_files`` that exist."""
         results = cls(Path(folder), dict(study_files))
         for key, path in study_files.items():
-            name = load_study(path).name
-            combined = Path(folder) / f"{name}.nc"
+            combined = Path(folder) / f"{load_study(path).name}.nc"
             if not combined.exists():
                 continue
+            with h5py.File(combined, "r") as f:
+                has_sweeps = "tangential" in f
             results.root[key] = xr.open_dataset(combined).load()
-            try:
-                results.tangential[key] = xr.open_dataset(combined, group="tangential").load()
-            except OSError:
-                results.tangential[key] = None
+            results.tangential[key] = (xr.open_dataset(combined, group="tangential").load() if has_sweeps
+                                       else None)
         return results
 
     def has(self, *keys: str) -> bool:
@@ -53,6 +61,12 @@ class PaperResults:
     def tasks(self, key: str):
         """The tasks of study ``key`` (to rebuild a task's topography for a map)."""
         return load_study(self.studies[key]).tasks()
+
+    def cached(self, name: tuple, compute: Callable[[], Any]) -> Any:
+        """``compute()`` the first time ``name`` is asked for, the same object afterwards."""
+        if name not in self._cache:
+            self._cache[name] = compute()
+        return self._cache[name]
 
 
 def study_files(folder: Path, studies: tuple[PaperStudy, ...] = STUDIES) -> dict[str, Path]:
@@ -67,26 +81,35 @@ def study_files(folder: Path, studies: tuple[PaperStudy, ...] = STUDIES) -> dict
 
 
 def interval(values, confidence: float = CONFIDENCE) -> tuple[float, float, float, int]:
-    """Mean, lower and upper bound of its Student-t interval, and n, of the finite ``values`` (one per seed)."""
+    """Mean, lower and upper bound of its Student-t interval, and n, of the finite ``values`` (one per seed).
+
+    The interval is :func:`~roughcontact.analysis.ensemble_statistics`' (NaN for fewer than 2 values).
+    """
     values = np.asarray(values, dtype=float).ravel()
     values = values[np.isfinite(values)]
-    n = values.size
-    if n == 0:
+    if values.size == 0:
         return np.nan, np.nan, np.nan, 0
-    mean = float(values.mean())
-    if n < 2:
-        return mean, np.nan, np.nan, n
-    half = stats.t.ppf(0.5 + confidence / 2.0, n - 1) * values.std(ddof=1) / np.sqrt(n)
-    return mean, mean - half, mean + half, n
+    if values.size == 1:
+        return float(values[0]), np.nan, np.nan, 1
+    stats = ensemble_statistics(xr.Dataset({"v": ("seed", values)}), confidence=confidence)
+    return float(stats["v"]), float(stats["v_lower"]), float(stats["v_upper"]), values.size
+
+
+def nearest(ds: xr.Dataset | xr.DataArray, **indexers):
+    """``ds.sel(indexers)`` for float coordinates: the nearest value, refused unless within 1e-6 of it (relative).
+
+    A study that lacks the asked-for load, closure, shift or Δ gives a one-line
+    :class:`InputError`, not silently the nearest other value.
+    """
+    out = ds.sel(indexers, method="nearest")
+    for dim, wanted in indexers.items():
+        got = np.asarray(out[dim].values, dtype=float)
+        if not np.allclose(got, wanted, rtol=1e-6, atol=0.0):
+            raise InputError(dim, f"the study has no {dim} = {wanted:g} (nearest: {float(np.ravel(got)[0]):g})")
+    return out
 
 
 def paired(values: xr.DataArray, dim: str, a, b, log: bool = False) -> xr.DataArray:
     """values(dim = b) − values(dim = a) per remaining sample (log ratio with ``log``)."""
-    high = values.sel({dim: b}, method="nearest")
-    low = values.sel({dim: a}, method="nearest")
+    high, low = nearest(values, **{dim: b}), nearest(values, **{dim: a})
     return np.log(high / low) if log else high - low
-
-
-def nearest(ds: xr.Dataset | xr.DataArray, **indexers):
-    """``ds.sel(..., method="nearest")`` for float coordinates."""
-    return ds.sel(indexers, method="nearest")

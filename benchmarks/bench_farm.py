@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Benchmark of the ensemble farm: throughput on 1 and 2 ranks, overhead per task, rank 0's writes.
+"""Benchmark of the ensemble farm: throughput on 1 and 2 ranks, overhead per task, the leaders' writes.
 
 Two ensembles of random-midpoint surfaces (Δ = 2.3, ν = 0 half-spaces):
 
@@ -18,7 +18,8 @@ files). Reported, medians of --repeats runs in one invocation:
 - parallel efficiency on n ranks = wall(1 rank) / (n · wall(n ranks)), whole run and farm phase;
 - utilisation = time the ranks spend solving and encoding tasks / (n · farm phase): what the
   farm's scheduling loses, whatever else shares the machine's cores;
-- rank 0's write throughput = bytes of task files / time rank 0 spends writing them.
+- write throughput = bytes of task files / time the group leaders spend encoding and writing
+  them (each leader writes its own tasks' files, fsync included).
 
     python -m benchmarks.bench_farm                  # writes results/bench_farm.json
     python -m benchmarks.bench_farm --repeats 1      # a quicker look
@@ -61,16 +62,16 @@ def worker(args) -> None:
 
     comm = MPI.COMM_WORLD
     writes = {"seconds": 0.0, "bytes": 0}
-    store_write = TaskStore.write
+    write_task = TaskStore.write_task
 
-    def timed_write(self, index, payload):          # rank 0's writes, as the farm makes them
+    def timed_write(self, task, groups):           # a leader's encode and write, as the farm makes them
         t0 = time.perf_counter()
-        size = store_write(self, index, payload)
+        written = write_task(self, task, groups)
         writes["seconds"] += time.perf_counter() - t0
-        writes["bytes"] += size
-        return size
+        writes["bytes"] += written.size
+        return written
 
-    TaskStore.write = timed_write
+    TaskStore.write_task = timed_write
     import roughcontact.farm.run as run_module
 
     farm_phase = {"seconds": 0.0}
@@ -82,7 +83,7 @@ def worker(args) -> None:
         farm_phase["seconds"] = time.perf_counter() - t0
 
     run_module.run_farm = timed_farm
-    busy = {"seconds": 0.0}                         # time this rank spends solving and encoding tasks
+    busy = {"seconds": 0.0}                         # time this rank spends solving, encoding and writing tasks
 
     def timed(function):
         def wrapper(*a, **k):
@@ -94,7 +95,7 @@ def worker(args) -> None:
         return wrapper
 
     run_module.solve_task = timed(run_module.solve_task)
-    run_module.encode = timed(run_module.encode)
+    TaskStore.write_task = timed(TaskStore.write_task)
     rows = []
     for name in args.cases:
         study = load_study(study_of(name))
@@ -114,16 +115,16 @@ def worker(args) -> None:
                 utilisation.append(comm.allreduce(busy["seconds"]) / (comm.Get_size() * farms[-1]))
                 comm.Barrier()
             assert summary.solved == len(tasks) and not summary.failed
-            written.append(comm.bcast(writes["bytes"], root=0))
-            write_s.append(comm.bcast(writes["seconds"], root=0))
+            written.append(comm.allreduce(writes["bytes"]))
+            write_s.append(comm.allreduce(writes["seconds"]))
         row = {"case": name, "ranks": comm.Get_size(), "tasks": len(tasks),
                "grid": f"{2 ** CASES[name]['levels'] + 1}^2", "loads": len(study.loads), "fields": study.fields,
                "wall_s_median": float(np.median(walls)), "tasks_per_s": len(tasks) / float(np.median(walls)),
                "farm_phase_s_median": float(np.median(farms)),
                "farm_utilisation_median": float(np.median(utilisation)),
                "task_files_MB": float(np.median(written)) / 1e6,
-               "rank0_write_s_median": float(np.median(write_s)),
-               "rank0_write_MB_per_s": float(np.median(written)) / 1e6 / max(float(np.median(write_s)), 1e-9)}
+               "write_s_median": float(np.median(write_s)),
+               "write_MB_per_s": float(np.median(written)) / 1e6 / max(float(np.median(write_s)), 1e-9)}
         if comm.Get_size() == 1:
             bare = []
             for _ in range(args.repeats):
@@ -165,7 +166,7 @@ def main() -> None:
                   + (f", efficiency {row['parallel_efficiency']:.2f} (farm phase "
                      f"{row['farm_phase_efficiency']:.2f})" if "parallel_efficiency" in row else "")
                   + f", ranks busy {row['farm_utilisation_median']:.0%} of the farm phase"
-                  + f", rank 0 writes {row['rank0_write_MB_per_s']:.0f} MB/s ({row['task_files_MB']:.1f} MB)")
+                  + f", leaders write {row['write_MB_per_s']:.0f} MB/s ({row['task_files_MB']:.1f} MB)")
     report = {"benchmark": "ensemble farm: run_study on 1 and 2 ranks against a bare serial loop of the solves",
               "machine": {"cpus": os.cpu_count()}, "repeats": args.repeats, "cases": CASES, "rows": summary}
     save_json(report, args.output)

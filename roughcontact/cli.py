@@ -120,8 +120,8 @@ def main(argv: list[str] | None = None) -> int:
 
     petsc4py.init([sys.argv[0]] + petsc)
 
-    from .errors import RoughContactError
-    from .farm.executor import abort
+    from .errors import RoughContactError, StorageError
+    from .farm.executor import STORAGE_CODE, abort
 
     comm = MPI.COMM_WORLD
     args.misplaced = misplaced_options(petsc, parser)
@@ -133,7 +133,7 @@ def main(argv: list[str] | None = None) -> int:
     except RoughContactError as exc:      # raised on every rank by the checks
         if comm.Get_rank() == 0:
             print(f"roughcontact: error: {exc}", file=sys.stderr)
-        return 2
+        return STORAGE_CODE if isinstance(exc, StorageError) else 2
     except BaseException:
         if comm.Get_size() == 1:
             raise

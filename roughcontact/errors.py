@@ -41,3 +41,18 @@ class ConvergenceError(RoughContactError, RuntimeError):
     def __init__(self, reason: str, message: str):
         self.reason = reason
         super().__init__(f"{reason}: {message}")
+
+
+class StorageError(RoughContactError):
+    """A file of a study could not be written or read back (no space, quota, permission, a
+    vanished directory): what failed, the path, and how a run resumes.
+
+    Attributes
+    ----------
+    path
+        The file or directory concerned.
+    """
+
+    def __init__(self, path, message: str):
+        self.path = str(path)
+        super().__init__(message)

@@ -63,7 +63,7 @@ def test_each_task_measured_on_its_own_grid(padded, name, measure):
     stacked = function(ds, load_dim="mean_pressure", on_error="mark")
     for task in definition.tasks():
         where = dict(zip((d.name for d in definition.dimensions), task.position))
-        with xr.open_dataset(store.path(task.index), engine="h5netcdf") as own:
+        with xr.open_dataset(store.path(task), engine="h5netcdf") as own:
             alone = function(own.load(), load_dim="mean_pressure", on_error="mark")
         mine = stacked[variable].isel(where)
         expected = alone[variable]

@@ -1,13 +1,16 @@
-"""Faults of a real ``mpiexec`` job: SIGKILL of the job or of one rank, and a rank that raises.
+"""Faults of a real ``mpiexec`` job: SIGKILL of the job or of one rank, a rank that raises, a full disk.
 
 Each test launches ``mpiexec -n 2`` itself, so it runs in the serial pass
-only. A small driver wraps :func:`roughcontact.farm.task.solve_task` (as the
-farm calls it) to append ``<task> <pid> <rank>`` to a log after each solve
-(and, when asked, to raise on one rank), then runs the command line: the
-log counts the solves of every run, independently of what the run reports.
+only. The jobs are those of the fault campaign (:mod:`benchmarks.bench_faults`):
+a small driver wraps :func:`roughcontact.farm.task.solve_task` (as the farm
+calls it) to append ``<task> <pid> <rank>`` to a log after each solve (and,
+when asked, to raise on one rank or to fail a task-file write with ENOSPC),
+then runs the command line: the log counts the solves of every run,
+independently of what the run reports.
 """
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -17,50 +20,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import xarray as xr
 
-DRIVER = '''
-import os, sys
-from mpi4py import MPI
-import roughcontact.farm.run as farm_run
-
-solve, log, fault = farm_run.solve_task, os.environ["RC_SOLVE_LOG"], os.environ.get("RC_FAULT")
-done = []
-
-def counted(task, comm):
-    rank = MPI.COMM_WORLD.Get_rank()
-    if fault and fault == f"{rank}:{len(done)}":     # "<rank>:<tasks it solves first>"
-        raise RuntimeError(f"injected fault in task {task.index}")
-    outcome = solve(task, comm)
-    done.append(task.index)
-    if comm.Get_rank() == 0:
-        with open(log, "a") as stream:
-            stream.write(f"{task.index} {os.getpid()} {rank}\\n")
-    return outcome
-
-farm_run.solve_task = counted
-from roughcontact.cli import main
-sys.exit(main())
-'''
-
-STUDY = '''
-name = "faults"
-[surface]
-levels = 5
-spacing = 1e-4
-rms_height = 1e-5
-[axes]
-fractal_dimension = [2.1, 2.3, 2.5]
-seeds = 8
-[materials]
-body1 = { E = 20e9, nu = 0.0 }
-body2 = { E = 20e9, nu = 0.0 }
-[normal]
-loads = [50.0, 100.0, 200.0, 300.0, 400.0, 500.0]
-[farm]
-ranks_per_task = {k}
-'''
-TASKS = 24
+from benchmarks.bench_faults import KINDS, TASKS, Job, campaign, scalars
 
 
 @pytest.fixture
@@ -81,71 +42,6 @@ def reference(tmp_path_factory):
     run = job.run("reference", "reference.log")
     assert run.returncode == 0, run.stderr
     return scalars(job.root / "reference" / "faults.nc")
-
-
-class Job:
-    """``mpiexec -n 2`` runs of the fault study in one directory, and what they left behind."""
-
-    def __init__(self, root: Path):
-        self.root = root
-        (root / "driver.py").write_text(DRIVER)
-        self.write_study(1)
-
-    def write_study(self, k: int) -> None:
-        (self.root / "study.toml").write_text(STUDY.replace("{k}", str(k)))
-
-    def command(self, output: str) -> list[str]:
-        launcher = Path(sys.executable).parent / "mpiexec"
-        return [str(launcher), "-n", "2", sys.executable, str(self.root / "driver.py"), "run",
-                str(self.root / "study.toml"), "--output", str(self.root / output), "--quiet"]
-
-    def env(self, log: str, fault: str | None = None) -> dict:
-        env = {**os.environ, "RC_SOLVE_LOG": str(self.root / log), "OPENBLAS_NUM_THREADS": "1"}
-        env.pop("RC_FAULT", None)
-        if fault:
-            env["RC_FAULT"] = fault
-        return env
-
-    def run(self, output: str, log: str, fault: str | None = None, timeout: float = 120):
-        return subprocess.run(self.command(output), env=self.env(log, fault), capture_output=True, text=True,
-                              timeout=timeout)
-
-    def files(self, output: str) -> dict[int, bytes]:
-        return {int(p.stem.split("-")[1]): p.read_bytes()
-                for p in (self.root / output / "faults.tasks").glob("task-*.nc")}
-
-    def solves(self, log: str) -> list[tuple[int, int, int]]:
-        path = self.root / log
-        return [tuple(map(int, line.split())) for line in path.read_text().splitlines()] if path.exists() else []
-
-    def kill_after(self, output: str, log: str, files: int, victim) -> None:
-        """Start a run and SIGKILL ``victim(process, solves)`` once ``files`` task files exist."""
-        process = subprocess.Popen(self.command(output), env=self.env(log), start_new_session=True,
-                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        deadline = time.monotonic() + 120
-        while len(self.files(output)) < files:
-            assert process.poll() is None, "the run ended before it could be killed"
-            assert time.monotonic() < deadline
-            time.sleep(0.01)
-        victim(process, self.solves(log))
-        try:
-            process.wait(timeout=60)
-        finally:
-            if _alive_group(process.pid):
-                os.killpg(process.pid, signal.SIGKILL)
-
-
-def _alive_group(pgid: int) -> bool:
-    try:
-        os.killpg(pgid, 0)
-        return True
-    except ProcessLookupError:
-        return False
-
-
-def scalars(path: Path) -> xr.Dataset:
-    with xr.open_dataset(path, engine="h5netcdf") as ds:
-        return ds.drop_vars([v for v in ds.data_vars if "elapsed" in v]).load()
 
 
 def kill_job(process, solves):
@@ -194,6 +90,8 @@ def test_a_raising_rank_aborts_the_job_with_its_message(job, k):
     assert faulty and "rank 1 of 2" in failed.stderr, failed.stderr
     written = job.files("out")
     assert int(faulty.group(1)) not in written
+    record = json.loads((job.root / "out" / "faults.failure.json").read_text())     # the reason, on disk
+    assert record["rank"] == 1 and record["exit_status"] == 70 and "injected fault" in record["message"]
     resumed = job.run("out", "second.log")
     assert resumed.returncode == 0, resumed.stderr
     assert {task for task, _, _ in job.solves("second.log")} == set(range(TASKS)) - set(written)
@@ -212,3 +110,45 @@ def test_more_ranks_than_cores_is_warned_about(tmp_path, comm):
                           "-c", check], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
     assert f"{cores + 1} ranks share {cores} core(s)" in run.stdout and "oversubscribed" in run.stdout
+
+
+@pytest.mark.parametrize("rank", [0, 1])
+def test_a_full_disk_ends_the_job_with_one_line_and_the_same_command_resumes(job, reference, rank):
+    """ENOSPC on the third task file a leader writes (rank 0, or rank 1 beside it): the job ends
+    with status 74 and one line on stderr naming the file, the count of task files safely on
+    disk and the resume hint (no traceback); no combined file; the reason in the failure record.
+    Space freed, the same command solves exactly the tasks without a file and gives the scalars
+    of an uninterrupted run bit for bit."""
+    failed = job.run("out", "first.log", full=f"{rank}:2", timeout=90)
+    assert failed.returncode == 74, failed.stderr
+    lines = [line for line in failed.stderr.splitlines() if line.startswith("roughcontact:")]
+    assert len(lines) == 1 and "Traceback" not in failed.stderr, failed.stderr
+    written = job.files("out")
+    assert "No space left on device" in lines[0] and "faults.tasks/task-" in lines[0]
+    assert "task file(s) are safely on disk" in lines[0] and "run the same command again" in lines[0]
+    on_disk = int(lines[0].split(" task file(s) are safely")[0].rsplit(" ", 1)[1])
+    assert on_disk <= len(written) < TASKS
+    assert not (job.root / "out" / "faults.nc").exists()
+    record = json.loads((job.root / "out" / "faults.failure.json").read_text())
+    assert record["exit_status"] == 74 and record["rank"] == rank and "No space left" in record["message"]
+    resumed = job.run("out", "second.log")
+    assert resumed.returncode == 0, resumed.stderr
+    assert {task for task, _, _ in job.solves("second.log")} == set(range(TASKS)) - set(written)
+    assert not (job.root / "out" / "faults.failure.json").exists()
+    resumed_ds = scalars(job.root / "out" / "faults.nc")
+    for name in reference.data_vars:
+        np.testing.assert_array_equal(resumed_ds[name].values, reference[name].values, err_msg=name)
+
+
+def test_one_fault_of_each_kind_at_a_random_moment_loses_and_recomputes_nothing(job):
+    """The campaign's fast subset: one run of each fault kind (SIGKILL of the job, of rank 1, a
+    raising task, ENOSPC at a random write, a truncated task file), each at a moment drawn from a
+    fixed seed, each followed by the same command: no task lost, none recomputed beyond those in
+    flight (and the one truncated), no hang, and the dataset of an uninterrupted run to 1e-12."""
+    report = campaign(job.root, runs=1, seed=11, hang=90.0, log=lambda *a: None)
+    assert set(report["table"]) == set(KINDS)
+    for kind, row in report["table"].items():
+        assert (row["runs"], row["tasks_lost"], row["recomputed_beyond_in_flight"], row["hangs"]) == (1, 0, 0, 0), \
+            (kind, report["rows"])
+        assert row["equal_to_uninterrupted"] == 1 and row["resumes_exit_0"] == 1, (kind, report["rows"])
+        assert row["one_line_on_stderr"] == 1, (kind, report["rows"])

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import NamedTuple
+from typing import Callable, NamedTuple
 
 import h5py
 import numpy as np
@@ -150,18 +150,39 @@ class _Group:
         return ds
 
 
-def combine(study, paths) -> dict[str, xr.Dataset]:
-    """The study dataset by group, from the task files ``paths[task.index]`` of ``study``."""
+def combine(study, paths, damaged: Callable | None = None) -> dict[str, xr.Dataset]:
+    """The study dataset by group, from the task files ``paths[task.index]`` of ``study``.
+
+    A file HDF5 cannot read is handed to ``damaged(task, path, why)`` and its
+    task left out (NaN, status −1: no result); without ``damaged`` it is an
+    :class:`InputError` naming the file.
+    """
     sizes = {study.load_dim: len(study.loads)}
     if study.tangential is not None:
         sizes.update(Q_over_fP=study.tangential.steps + 1, step=3 * (study.tangential.fretting_steps + 1))
     if study.fretting is not None:
         sizes.update(amplitude=len(study.fretting.amplitudes))
-    grids = {task.position: task_grid(paths[task.index]) for task in study.tasks()}
+    grids, lost = {}, set()
+
+    def read(task, function):
+        path = paths[task.index]
+        try:
+            return function(path)
+        except (OSError, KeyError, ValueError, TypeError) as exc:
+            if damaged is None:
+                raise InputError(str(path), f"HDF5 cannot read this task file ({exc}); remove it to solve "
+                                            f"{task.name} again") from None
+            damaged(task, path, f"HDF5 cannot read it: {exc}")
+            lost.add(task.index)
+            return None
+
+    for task in study.tasks():
+        grids[task.position] = read(task, task_grid)
     frame = Frame.of({position: grid for position, grid in grids.items() if grid is not None})
     groups: dict[str, _Group] = {}
     for task in study.tasks():
-        for name, (variables, attrs) in read_groups(paths[task.index]).items():
+        content = read(task, read_groups) if task.index not in lost else None
+        for name, (variables, attrs) in (content or {}).items():
             try:
                 groups.setdefault(name, _Group(study.shape, sizes, frame)).add(task.position, variables, attrs)
             except _Misfit as exc:
@@ -177,12 +198,17 @@ def combine(study, paths) -> dict[str, xr.Dataset]:
 
 
 def write_combined(groups: dict[str, xr.Dataset], path: str | os.PathLike) -> Path:
-    """Write the study dataset to ``path`` through ``path.part`` and a rename."""
+    """Write the study dataset to ``path`` through ``path.part`` and a rename (an OSError
+    removes the ``.part`` file and is raised)."""
     path = Path(path)
     part = path.with_name(path.name + ".part")
-    part.unlink(missing_ok=True)
-    encode(groups, part)
-    os.replace(part, path)
+    try:
+        part.unlink(missing_ok=True)
+        encode(groups, part)
+        os.replace(part, path)
+    except OSError:
+        part.unlink(missing_ok=True)          # no half-written combined file is left
+        raise
     return path
 
 

@@ -38,7 +38,7 @@ import hashlib
 import inspect
 import json
 import re
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -86,6 +86,7 @@ class Study(Loading):
     text: str = ""
     definition: str = ""
     base_dir: Path | None = None
+    file_hashes: dict[str, str] = field(default_factory=dict, compare=False)
 
     @property
     def identity(self) -> str:
@@ -97,16 +98,91 @@ class Study(Loading):
         """Sizes of the study dimensions (empty for a one-task study)."""
         return tuple(d.size for d in self.dimensions)
 
+    @property
+    def shared(self) -> dict[str, Any]:
+        """What every task of the study shares, keyed as the study file's tables: the surface
+        arguments that are not axes (the generator's defaults filled in), the materials unless
+        varied, the controls and how they are solved (``[normal]``, ``[tangential]``,
+        ``[fretting]``) and the fields stored (``[output]``).
+
+        A resumed run whose shared part differs from the stored one's is refused
+        naming the key (:meth:`~.store.TaskStore.check_owner`); the axes may grow,
+        shrink or be reordered.
+        """
+        varied = {a.key for d in self.dimensions for a in d.axes}
+        record = _loading_record(self.loading())
+        control = next(key for key, (dim, _) in CONTROLS.items() if dim == self.load_dim)
+        out = {"surface": {k: v for k, v in _with_defaults(self.surface).items() if k not in varied},
+               "normal": {control: record["loads"], **record["normal"]},
+               "tangential": record["tangential"], "fretting": record["fretting"],
+               "output": {"fields": record["fields"]}}
+        if "materials" not in varied:
+            out["materials"] = _bodies(self.interface)
+        return json.loads(json.dumps(out, sort_keys=True, default=_plain))
+
     def tasks(self) -> list[Task]:
-        """Every task, in row-major order of the dimensions (the task number is the position)."""
+        """Every task, in row-major order of the dimensions (``index`` is that order, ``key``
+        what the task computes: :func:`task_key`)."""
         out = []
+        loading = self.loading()
         for index, (position, values) in enumerate(positions(self.dimensions)):
             surface = {**self.surface, **{k: v for k, v in values.items() if k != "materials"}}
             if surface["generator"] == "file" and self.base_dir is not None:
                 surface["path"] = str(self.base_dir / surface["path"])
-            out.append(Task(index=index, position=position, labels=values, surface=surface,
-                            interface=values.get("materials", self.interface), **self.loading()))
+            interface = values.get("materials", self.interface)
+            out.append(Task(index=index, position=position, labels=values, surface=surface, interface=interface,
+                            key=task_key(surface, interface, loading, self.file_hashes), **loading))
         return out
+
+
+def task_key(surface: dict, interface, loading: dict, file_hashes: dict | None = None) -> str:
+    """SHA-256 (hex) of everything that determines a task's results, and nothing else.
+
+    The surface's arguments with the generator's defaults filled in (a measured
+    surface by the SHA-256 of its file, not its path), the two materials, the
+    loads and how they are solved, the fields stored. Not the task's position in
+    its study nor the study's name: a task keeps its key, and its file, when an
+    axis grows or is reordered.
+    """
+    spec = _with_defaults(surface)
+    if spec["generator"] == "file":
+        path = spec.pop("path")
+        spec["file_sha256"] = (file_hashes or {}).get(path) or _sha256(path)
+    record = {"surface": spec, "materials": _bodies(interface), **_loading_record(loading)}
+    text = json.dumps(record, sort_keys=True, default=_plain)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _with_defaults(surface: dict) -> dict:
+    """``surface`` with every argument its generator defaults filled in."""
+    function = generators()[surface["generator"]]
+    defaults = {name: p.default for name, p in inspect.signature(function).parameters.items()
+                if p.default is not inspect.Parameter.empty}
+    return {**defaults, **surface}
+
+
+def _bodies(interface) -> dict | None:
+    """The two bodies' constants as the study file gives them (E = inf: rigid)."""
+    if interface is None:
+        return None
+    return {name: {"E": getattr(interface, name).E, "nu": getattr(interface, name).nu} for name in ("body1", "body2")}
+
+
+def _loading_record(loading: dict) -> dict:
+    """The loading of a study or task as plain values (dataclasses as dicts)."""
+    return {k: asdict(v) if hasattr(v, "__dataclass_fields__") else v for k, v in loading.items()}
+
+
+def _plain(value):
+    """JSON for what the standard encoder does not know (numpy scalars, paths)."""
+    return value.item() if hasattr(value, "item") else str(value)
+
+
+def _sha256(path) -> str:
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError:
+        return "unreadable"
 
 
 def load_study(source: str | Path | dict | None = None) -> Study:
@@ -161,6 +237,10 @@ def load_study(source: str | Path | dict | None = None) -> Study:
                   ranks_per_task=ranks,
                   description=schema.string("description", raw.get("description", "")),
                   text=text or json.dumps(raw, indent=1, default=str), base_dir=base_dir)
+    if surface["generator"] == "file":       # each measured surface read and hashed once
+        paths = {values.get("path", surface.get("path")) for _, values in positions(dimensions)}
+        paths = {str(base_dir / p) if base_dir is not None else p for p in paths}
+        study = replace(study, file_hashes={p: _sha256(p) for p in sorted(paths)})
     return replace(study, definition=_definition(raw, study))
 
 
@@ -317,6 +397,5 @@ def _definition(raw: dict, study: Study) -> str:
     """What determines the results, as canonical JSON: the study without its description
     and [farm] table, and the SHA-256 of the measured surfaces it reads."""
     relevant = {k: v for k, v in raw.items() if k not in ("description", "farm")}
-    files = {t.surface["path"] for t in study.tasks()} if study.surface["generator"] == "file" else ()
-    contents = sorted(hashlib.sha256(Path(p).read_bytes()).hexdigest() for p in files if Path(p).is_file())
+    contents = sorted(h for h in study.file_hashes.values() if h != "unreadable")
     return json.dumps({"study": relevant, "files": contents}, sort_keys=True, default=str)

@@ -59,7 +59,8 @@ def task_groups(outcome: TaskOutcome) -> dict[str, xr.Dataset]:
             {"units": "J", "long_name": "energy dissipated up to incipient sliding E_tot (Eq. 27)"})
     root = root.assign(_task_scalars(outcome))
     first = outcome.normal[0] if outcome.normal else None
-    root.attrs = {"roughcontact_version": __version__, "task": task.index, "task_name": task.name,
+    root.attrs = {"roughcontact_version": __version__, "task": task.index, "task_key": task.key,
+                  "task_name": task.name,
                   "ranks_per_task": outcome.ranks, "fields": task.fields,
                   "operator": first.operator if first else task.normal.operator,
                   "method": first.method if first else task.normal.method,

@@ -16,13 +16,14 @@ from pathlib import Path
 from typing import Callable
 
 from .. import __version__
+from ..errors import StorageError
 from .combine import combine, write_combined
 from .definition import Study
-from .executor import group_count, on_root, run_farm
+from .executor import STORAGE_CODE, group_count, on_root, record_failures_with, run_farm
 from .guards import check_operator_memory, oversubscription, storage_estimate, task_size
 from .progress import Progress
-from .records import encode, task_groups
-from .store import TaskStore
+from .records import FAILED, task_groups
+from .store import DAMAGED, TaskStore
 from .task import solve_task
 
 
@@ -35,6 +36,7 @@ class RunSummary:
     resumed: int
     solved: int
     failed: dict[int, str] = field(default_factory=dict)
+    missing: dict[int, str] = field(default_factory=dict)
     warned: int = 0
     paths: dict[str, Path] = field(default_factory=dict)
     elapsed: float = 0.0
@@ -42,8 +44,9 @@ class RunSummary:
 
     @property
     def exit_code(self) -> int:
-        """0 when every task completed, 1 when some failed (their results are recorded)."""
-        return 1 if self.failed else 0
+        """0 when every task completed; 1 when some failed (their results are recorded) or have
+        no result (a file damaged after it was written: the next run solves it again)."""
+        return 1 if self.failed or self.missing else 0
 
 
 def run_study(study: Study, comm, output: str | Path, log: Callable = print, quiet: bool = False,
@@ -65,8 +68,10 @@ def run_study(study: Study, comm, output: str | Path, log: Callable = print, qui
     k = study.ranks_per_task if ranks_per_task is None else ranks_per_task
     tasks = study.tasks()
     store = TaskStore(output, study.name)
-    finished = on_root(comm, _resume, store, study, retry_failed)
-    pending = [t for t in tasks if t.index not in finished]
+    found = on_root(comm, _resume, store, study, tasks, retry_failed)
+    if rank == 0:
+        _warn_found(store, found)
+    pending = [t for t in tasks if t.key not in found.done]
     count = group_count(comm.Get_size(), k)      # refuses a k that does not divide the ranks
     grid, footprint = on_root(comm, _sizes, pending)
     if pending:
@@ -76,34 +81,54 @@ def run_study(study: Study, comm, output: str | Path, log: Callable = print, qui
     crowded = oversubscription(comm)
     if crowded and rank == 0:
         print(f"roughcontact: warning: {crowded}", file=sys.stderr)
-    say(f"{study.name}: {len(tasks)} task(s), {len(finished)} already done, {comm.Get_size()} rank(s) in "
+    resumed = len(tasks) - len(pending)
+    say(f"{study.name}: {len(tasks)} task(s), {resumed} already done, {comm.Get_size()} rank(s) in "
         f"{count} group(s) of {k}, operator {study.normal.operator}, method {study.normal.method}")
     if pending:
         say(f"  storage: {storage_estimate(study, grid)}")
     on_root(comm, store.claim, study)
-    progress = Progress(study.name, len(tasks), len(finished), enabled=not quiet and rank == 0)
+    progress = Progress(study.name, len(tasks), resumed, enabled=not quiet and rank == 0)
     solved_here = [0]
 
     def work(task, group):
         outcome = solve_task(task, group)
         solved_here[0] += 1
-        return (outcome.error, encode(task_groups(outcome))) if group.Get_rank() == 0 else None
+        # the leader writes the file itself: no result travels through rank 0
+        return store.write_task(task, task_groups(outcome)) if group.Get_rank() == 0 else None
 
-    def deliver(task, payload):
-        error, data = payload
-        progress.task_done(bool(error), store.write(task.index, data))
+    def deliver(task, written):
+        progress.task_done(written.failed, written.size)
 
-    run_farm(pending, comm, k, work, deliver)
-    progress.close()
-    attrs = _provenance(study, comm, k, started, _petsc_options())
-    paths = on_root(comm, _finish, study, store, attrs, tasks)
+    try:
+        with record_failures_with(store.record_failure):
+            run_farm(pending, comm, k, work, deliver)
+            progress.close()
+            attrs = _provenance(study, comm, k, started, _petsc_options())
+            paths = on_root(comm, _finish, study, store, attrs, tasks)
+    except StorageError as exc:           # raised here on one rank, or by rank 0 on every rank
+        if rank == 0:
+            store.record_failure(f"roughcontact: error: {exc}", STORAGE_CODE, rank)
+        raise
     solved = comm.bcast(progress.solved, root=0)
-    summary = RunSummary(name=study.name, tasks=len(tasks), resumed=len(finished), solved=solved,
-                         failed=paths.pop("failed"), warned=paths.pop("warned"), paths=paths, elapsed=time.perf_counter() - t0,
-                         solved_here=solved_here[0])
+    summary = RunSummary(name=study.name, tasks=len(tasks), resumed=resumed, solved=solved,
+                         failed=paths.pop("failed"), missing=paths.pop("missing"), warned=paths.pop("warned"),
+                         paths=paths, elapsed=time.perf_counter() - t0, solved_here=solved_here[0])
     say(_closing(summary, progress.written))
     return summary
 
+
+def _warn_found(store: TaskStore, found) -> None:
+    """Rank 0: what the check of the task files found, and the last run's abort."""
+    last = store.last_failure()
+    if last:
+        print(f"roughcontact: note: the last run of {store.name} was aborted ({last}); resuming", file=sys.stderr)
+        store.clear_failure()
+    for path, why in found.damaged:
+        print(f"roughcontact: warning: a task file was damaged ({why}): moved aside to {path}; its task is "
+              "solved again", file=sys.stderr)
+    if found.unused:
+        print(f"roughcontact: note: {found.unused} task file(s) under {store.directory} hold values no longer "
+              "in the study: kept, not combined", file=sys.stderr)
 
 
 def _build_surface(task) -> None:
@@ -112,11 +137,11 @@ def _build_surface(task) -> None:
     task.topography()
 
 
-def _resume(store: TaskStore, study: Study, retry_failed: bool) -> set[int]:
-    """Check the output is writable and holds no other study; the tasks already done."""
+def _resume(store: TaskStore, study: Study, tasks: list, retry_failed: bool):
+    """Check the output is writable and holds no other study; the tasks already done (:class:`~.store.Resume`)."""
     store.check_writable()
     store.check_owner(study)
-    return store.finished(retry_failed)
+    return store.resume(tasks, retry_failed)
 
 
 def _sizes(tasks: list) -> tuple[int, int]:
@@ -129,17 +154,30 @@ def _finish(study: Study, store: TaskStore, attrs: dict, tasks: list) -> dict:
     from ..analysis.ensemble import ensemble_statistics
     from ..analysis.figures import contact_area_vs_load
 
-    groups = combine(study, {t.index: store.path(t.index) for t in tasks})
+    missing = {}
+
+    def damaged(task, path, why):
+        missing[task.index] = f"{why}; moved aside to {store.set_aside(path)}"
+        print(f"roughcontact: warning: the file of {task.name} was damaged ({why}): moved aside to "
+              f"{path.name}{DAMAGED}; the next run solves it again", file=sys.stderr)
+
+    groups = combine(study, {t.index: store.path(t) for t in tasks}, damaged)
     root = groups["/"]
     failed = {t.index: str(root["message"].values[t.position]) for t in tasks
-              if int(root["status"].values[t.position]) != 0}
+              if int(root["status"].values[t.position]) == FAILED}
     attrs["tasks_failed"] = len(failed)
+    attrs["tasks_missing"] = len(missing)
     # task files of earlier versions have no warnings variable
     warned = sum(1 for t in tasks if "warnings" in root and str(root["warnings"].values[t.position]))
     # the operator and method the first task resolved (each task file records its own)
     kept = ("fields_note", "operator", "method", "solver", "solver_choice")
     root.attrs = {**attrs, **{k: v for k, v in root.attrs.items() if k.startswith(kept)}}
-    paths = {"netcdf": write_combined(groups, store.combined), "failed": failed, "warned": warned}
+    try:
+        written = write_combined(groups, store.combined)
+    except OSError as exc:
+        raise store.error("write the combined dataset", store.combined, exc) from None
+    store.clear_failure()
+    paths = {"netcdf": written, "failed": failed, "missing": missing, "warned": warned}
     if "contact_fraction" in root and root["contact_fraction"].notnull().any():
         curves = [name for name in ("contact_fraction", "normal_load") if name in root.data_vars]
         shown = ensemble_statistics(root[curves], "seed") if root.sizes.get("seed", 1) > 1 else root
@@ -191,5 +229,9 @@ def _closing(summary: RunSummary, written: int) -> str:
     for reason, indices in reasons.items():
         shown = ", ".join(map(str, indices[:10])) + (" …" if len(indices) > 10 else "")
         lines.append(f"  {len(indices)} failed with {reason} (tasks {shown})")
+    if summary.missing:
+        shown = ", ".join(map(str, sorted(summary.missing)[:10])) + (" …" if len(summary.missing) > 10 else "")
+        lines.append(f"  {len(summary.missing)} without a result (damaged files moved aside; tasks {shown}): "
+                     "run the same command again to solve them")
     lines.append("  wrote " + " and ".join(str(p) for p in summary.paths.values()))
     return "\n".join(lines)

@@ -117,7 +117,9 @@ class Task(Loading):
     """Everything one task needs, and nothing else (pickled to the rank that solves it).
 
     ``position`` is its index along each study dimension, ``labels`` the axis
-    values that made it; the loads and options are those of :class:`Loading`.
+    values that made it, ``index`` its number in the study's order; ``key``
+    (:func:`~.definition.task_key`) names what it computes, and its file. The
+    loads and options are those of :class:`Loading`.
     """
 
     index: int
@@ -125,6 +127,7 @@ class Task(Loading):
     labels: dict[str, Any]
     surface: dict[str, Any]
     interface: Interface
+    key: str = ""
 
     @property
     def name(self) -> str:

@@ -117,10 +117,10 @@ class Job:
     def write_study(self, k: int) -> None:
         (self.root / "study.toml").write_text(STUDY.replace("{k}", str(k)))
 
-    def command(self, output: str) -> list[str]:
+    def command(self, output: str, *extra: str, ranks: int = 2) -> list[str]:
         launcher = Path(sys.executable).parent / "mpiexec"
-        return [str(launcher), "-n", "2", sys.executable, str(self.root / "driver.py"), "run",
-                str(self.root / "study.toml"), "--output", str(self.root / output), "--quiet"]
+        return [str(launcher), "-n", str(ranks), sys.executable, str(self.root / "driver.py"), "run",
+                str(self.root / "study.toml"), "--output", str(self.root / output), "--quiet", *extra]
 
     def env(self, log: str, fault: str | None = None, full: str | None = None, pids: Path | None = None) -> dict:
         env = {**os.environ, "RC_SOLVE_LOG": str(self.root / log), "OPENBLAS_NUM_THREADS": "1"}
@@ -134,9 +134,11 @@ class Job:
         return subprocess.run(self.command(output), env=self.env(log, fault, full), capture_output=True, text=True,
                               timeout=timeout)
 
-    def start(self, output: str, log: str, pids: Path | None = None) -> subprocess.Popen:
-        return subprocess.Popen(self.command(output), env=self.env(log, pids=pids), start_new_session=True,
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    def start(self, output: str, log: str, pids: Path | None = None, *extra: str, ranks: int = 2,
+              capture: bool = False) -> subprocess.Popen:
+        pipe = subprocess.PIPE if capture else subprocess.DEVNULL
+        return subprocess.Popen(self.command(output, *extra, ranks=ranks), env=self.env(log, pids=pids),
+                                start_new_session=True, stdout=pipe, stderr=pipe, text=True)
 
     def paths(self, output: str) -> dict[int, Path]:
         """The whole task files on disk by task number (read from each file's ``task`` attribute)."""

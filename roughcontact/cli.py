@@ -68,19 +68,44 @@ def _run_parser(sub) -> None:
     run.add_argument("--ranks-per-task", type=int, default=None, metavar="K",
                      help="ranks solving each task (default: the study's [farm] ranks_per_task, else 1)")
     run.add_argument("--retry-failed", action="store_true", help="solve again the tasks recorded as failed")
+    run.add_argument("--shard", default=None, metavar="I/N",
+                     help="solve only part I of N (0 <= I < N) of the tasks, split by task key (default: "
+                          "SLURM_ARRAY_TASK_ID - SLURM_ARRAY_TASK_MIN of SLURM_ARRAY_TASK_COUNT in a job array)")
     run.set_defaults(handler=_run)
 
 
 def _run(args, comm) -> int:
     from .farm import load_study, run_study
 
+    from .farm.leases import parse_shard
+
+    shard = parse_shard(args.shard)
     study = load_study(args.study)
     summary = run_study(study, comm, args.output, quiet=args.quiet, retry_failed=args.retry_failed,
-                        ranks_per_task=args.ranks_per_task)
+                        ranks_per_task=args.ranks_per_task, shard=shard)
     if comm.Get_rank() == 0 and summary.solved_here:
         for option in _unused_petsc_options(args.misplaced):
             _warn(f"PETSc option -{option} was not used by any solver of this run "
                   "(misspelt, or for a solver the study does not run)")
+    return summary.exit_code
+
+
+def _combine_parser(sub) -> None:
+    combine = sub.add_parser("combine", help="combine a study's task files into <name>.nc, solving nothing",
+                             description="Combine the task files of a study under --output into <name>.nc "
+                                         "(one process; no MPI launcher needed). Tasks without a file are "
+                                         "left without a result (status -1); exit 1 if any.")
+    combine.add_argument("study", nargs="?", help="TOML study file (default: built-in)")
+    combine.add_argument("--output", default="results", help="output directory (default: results)")
+    combine.set_defaults(handler=_combine)
+
+
+def _combine(args, comm) -> int:
+    from .farm import combine_study, load_study
+    from .farm.executor import on_root
+
+    study = load_study(args.study)
+    summary = on_root(comm, combine_study, study, args.output)
     return summary.exit_code
 
 
@@ -103,7 +128,7 @@ def _paper_parser(sub) -> None:
 
 
 #: the subcommands: each adds its parser (with ``handler(args, comm) -> exit status``) to ``sub``
-SUBCOMMANDS = (_run_parser, _analyse_parser, _paper_parser)
+SUBCOMMANDS = (_run_parser, _combine_parser, _analyse_parser, _paper_parser)
 
 
 def main(argv: list[str] | None = None) -> int:

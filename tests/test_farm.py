@@ -344,3 +344,27 @@ def test_ensemble_statistics_are_student_t_intervals_over_seeds():
     with pytest.raises(InputError) as info:
         ensemble_statistics(ds, "realisation")
     assert info.value.parameter == "dim"
+
+
+def test_a_batch_log_gets_a_progress_line_every_interval():
+    """stderr not a terminal (a Slurm log): a whole line every interval, counting what finished,
+    and none after close; a terminal-less --quiet run writes nothing."""
+    import io
+    import time
+
+    from roughcontact.farm.progress import Progress
+
+    log = io.StringIO()
+    progress = Progress("batch", total=10, resumed=2, stream=log, interval=0.02)
+    progress.task_done(False, 100)
+    progress.task_done(True, 100)
+    deadline = time.monotonic() + 30
+    while log.getvalue().count("\n") < 2 and time.monotonic() < deadline:
+        time.sleep(0.005)
+    progress.close()
+    lines = log.getvalue().splitlines()
+    assert len(lines) >= 2 and all(line.startswith("batch: 4/10 tasks, 1 failed") for line in lines)
+    assert not progress._ticker.is_alive()          # close joined it: nothing more comes
+    silent = io.StringIO()
+    Progress("quiet", total=10, resumed=0, enabled=False, stream=silent, interval=0.01).close()
+    assert silent.getvalue() == ""

@@ -33,6 +33,27 @@ def study(name: str, seeds: int = 2, dimensions=(2.2,), **tables) -> dict:
     return raw
 
 
+#: study("combined", seeds=3) as a study file
+COMBINED = """
+name = "combined"
+[surface]
+generator = "midpoint"
+levels = 3
+spacing = 1e-4
+rms_height = 1e-5
+[axes]
+fractal_dimension = [2.2]
+seeds = 3
+[materials]
+body1 = { E = 20e9, nu = 0.0 }
+body2 = { E = 20e9, nu = 0.0 }
+[normal]
+loads = [2.0, 5.0]
+[output]
+fields = "contact"
+"""
+
+
 def quiet(*args, **kwargs):
     pass
 
@@ -190,3 +211,30 @@ def test_a_store_of_the_earlier_layout_is_renamed_to_keys(comm, shared_dir):
     again = run_study(definition, comm, shared_dir, log=quiet, quiet=True)
     assert (again.resumed, again.solved) == (3, 0)
     assert all(store.path(t).exists() for t in definition.tasks())
+
+
+def test_combine_command_solves_nothing_and_marks_tasks_without_a_file(comm, shared_dir, tmp_path_factory):
+    """``roughcontact combine`` (no farm): with one task file removed it writes the dataset with
+    that task's status −1 and exits 1; with every file present it exits 0 and writes what the run
+    wrote, bit for bit (wall times aside)."""
+    from roughcontact.cli import main
+
+    path = shared_dir / "combined.toml"
+    if comm.Get_rank() == 0:
+        path.write_text(COMBINED)
+    comm.Barrier()
+    definition = load_study(path)
+    assert definition.shared == load_study(study("combined", seeds=3)).shared
+    summary = run_study(definition, comm, shared_dir, log=quiet, quiet=True)
+    reference = dataset(summary.paths["netcdf"])
+    store = TaskStore(shared_dir, "combined")
+    assert main(["combine", str(path), "--output", str(shared_dir)]) == 0
+    assert_same(dataset(store.combined), reference)
+    comm.Barrier()
+    if comm.Get_rank() == 0:
+        store.path(definition.tasks()[1]).unlink()
+    comm.Barrier()
+    assert main(["combine", str(path), "--output", str(shared_dir)]) == 1
+    partial = dataset(store.combined)
+    assert partial["status"].values.tolist() == [[0, -1, 0]]
+    assert partial["closure"].isel(seed=1).isnull().all()

@@ -13,8 +13,8 @@ Ensemble means, spreads and confidence intervals over seeds are
 for the measures of its analysis.
 """
 from .definition import DEFAULT_STUDY, Study, load_study
-from .run import RunSummary, run_study
+from .run import RunSummary, combine_study, run_study
 from .task import NormalOptions, TangentialOptions, Task, open_normal_solver, solve_task
 
-__all__ = ["DEFAULT_STUDY", "NormalOptions", "RunSummary", "Study", "TangentialOptions", "Task",
+__all__ = ["DEFAULT_STUDY", "NormalOptions", "RunSummary", "Study", "TangentialOptions", "Task", "combine_study",
            "load_study", "open_normal_solver", "run_study", "solve_task"]

@@ -201,9 +201,8 @@ def write_combined(groups: dict[str, xr.Dataset], path: str | os.PathLike) -> Pa
     """Write the study dataset to ``path`` through ``path.part`` and a rename (an OSError
     removes the ``.part`` file and is raised)."""
     path = Path(path)
-    part = path.with_name(path.name + ".part")
+    part = path.with_name(f"{path.name}.{os.getpid()}.part")       # two shards may finish at once
     try:
-        part.unlink(missing_ok=True)
         encode(groups, part)
         os.replace(part, path)
     except OSError:

@@ -38,6 +38,8 @@ from ..errors import InputError, RoughContactError, StorageError
 ABORT_CODE = 70
 #: exit status of a run that could not write or read its files (sysexits' EX_IOERR)
 STORAGE_CODE = 74
+#: exit status of a run drained by SIGTERM or SIGUSR1 before its tasks were done (sysexits' EX_TEMPFAIL)
+DRAIN_CODE = 75
 #: the longest wait (s) for the launcher to read an abort's message from the stderr pipe
 DRAIN_LIMIT = 5.0
 
@@ -77,9 +79,54 @@ def group_count(ranks: int, size) -> int:
     return ranks // size
 
 
-def run_farm(tasks: list, comm, ranks_per_task: int, work: Callable, deliver: Callable,
+class TaskQueue:
+    """Rank 0's queue of tasks: each taken once, if ``claim(task)`` allows (thread-safe).
+
+    ``claim`` returns True (take it), False (drop it: done elsewhere) or None
+    (another job holds it: ask again once the others are handed out, every
+    ``poll`` seconds). After :meth:`drain` nothing more is handed out.
+    """
+
+    def __init__(self, tasks, claim: Callable | None = None, poll: float = 1.0):
+        self.queue = deque(tasks)
+        self.claim = claim
+        self.poll = poll
+        self.draining = threading.Event()
+        self.lock = threading.Lock()
+        self.dropped = 0
+
+    def drain(self) -> None:
+        self.draining.set()
+
+    @property
+    def left(self) -> int:
+        """Tasks not handed out (with those another job holds)."""
+        return len(self.queue)
+
+    def take(self):
+        with self.lock:
+            deferred = 0
+            while self.queue and not self.draining.is_set():
+                task = self.queue.popleft()
+                verdict = True if self.claim is None else self.claim(task)
+                if verdict:
+                    return task
+                if verdict is False:
+                    self.dropped += 1
+                    deferred = 0
+                    continue
+                self.queue.append(task)                    # held by another job: after the others
+                deferred += 1
+                if deferred >= len(self.queue):            # only such tasks are left: wait for them
+                    self.draining.wait(self.poll)
+                    deferred = 0
+            return None
+
+
+def run_farm(tasks, comm, ranks_per_task: int, work: Callable, deliver: Callable,
              backoff: float = 0.002) -> None:
-    """Solve ``tasks`` on groups of ``ranks_per_task`` ranks of ``comm`` (collective).
+    """Solve ``tasks`` (a list, or a :class:`TaskQueue` on rank 0) on groups of ``ranks_per_task``
+    ranks of ``comm`` (collective).
 
     ``work(task, group_comm)`` runs on every rank of the group that takes the
     task; its value on the group's leader reaches ``deliver(task, value)`` on
@@ -97,15 +144,16 @@ def run_farm(tasks: list, comm, ranks_per_task: int, work: Callable, deliver: Ca
             while (task := groups.group.bcast(None, root=0)) is not None:
                 _guarded(work, task, groups.group, comm)
             return
+        queue = tasks if isinstance(tasks, TaskQueue) else TaskQueue(tasks)
         if groups.leaders.Get_size() == 1:
-            for task in tasks:
+            while (task := queue.take()) is not None:
                 deliver(task, _lead(task))
         else:
             with MPICommExecutor(groups.leaders, root=0, backoff=backoff) as executor:
                 if executor is not None:
                     root_works = MPI.Query_thread() >= MPI.THREAD_MULTIPLE
                     try:
-                        _feed(executor, tasks, deliver, groups.leaders.Get_size() - 1, root_works, comm)
+                        _feed(executor, queue, deliver, groups.leaders.Get_size() - 1, root_works, comm)
                     except BaseException:   # abort now: leaving the block would wait for the workers
                         abort(comm, f"roughcontact: rank 0: {traceback.format_exc()}")
         if groups.group.Get_size() > 1:
@@ -119,19 +167,14 @@ def run_farm(tasks: list, comm, ranks_per_task: int, work: Callable, deliver: Ca
         groups.free()
 
 
-def _feed(executor, tasks, deliver, remote_workers: int, root_works: bool, comm) -> None:
+def _feed(executor, queue: TaskQueue, deliver, remote_workers: int, root_works: bool, comm) -> None:
     """Rank 0: keep one task in flight per remote leader, solve the rest here."""
     # the manager thread creates its intercommunicator first: MPICH may deadlock when it does so
     # while this thread creates the communicators of a solve (PETSc duplicates them)
     executor.bootup(wait=True)
-    queue = deque(tasks)
-    lock = threading.Lock()
     outstanding: set = set()
     settled = threading.Condition()
-
-    def take():
-        with lock:
-            return queue.popleft() if queue else None
+    take = queue.take
 
     def submit():
         task = take()
@@ -166,7 +209,7 @@ def _feed(executor, tasks, deliver, remote_workers: int, root_works: bool, comm)
     finally:
         sys.setswitchinterval(interval)
     with settled:
-        settled.wait_for(lambda: not outstanding and not queue)
+        settled.wait_for(lambda: not outstanding)
 
 
 def _lead(task):

@@ -24,8 +24,13 @@ MEMORY_SHARE = 0.8
 _FIELD_BYTES = {"none": 0, "contact": 1, "force": 8 + 1, "all": 3 * 8 + 1}
 
 
-def available_memory() -> int:
-    """Bytes this node can still give: MemAvailable, or the cgroup's remaining limit if lower."""
+def available_memory(proc_cgroup: str = "/proc/self/cgroup", mount: str = "/sys/fs/cgroup") -> int:
+    """Bytes this process can still get: MemAvailable, or its cgroup's remaining limit if lower.
+
+    The cgroup is the process's own (``/proc/self/cgroup``: a Slurm job step's
+    under ``--mem``), and every ancestor's limit counts: the least remaining
+    (limit − usage) of them is the bound. cgroup v2 and v1's memory controller.
+    """
     limits = []
     try:
         for line in Path("/proc/meminfo").read_text().splitlines():
@@ -33,16 +38,55 @@ def available_memory() -> int:
                 limits.append(int(line.split()[1]) * 1024)
     except OSError:
         pass
-    for limit_file, usage_file in (("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
-                                   ("/sys/fs/cgroup/memory/memory.limit_in_bytes",
-                                    "/sys/fs/cgroup/memory/memory.usage_in_bytes")):
+    for directory, (limit_name, usage_name) in _cgroup_dirs("memory", proc_cgroup, mount):
         try:
-            limit = Path(limit_file).read_text().strip()
+            limit = (directory / limit_name).read_text().strip()
             if limit != "max" and int(limit) < 2**60:
-                limits.append(int(limit) - int(Path(usage_file).read_text()))
+                limits.append(int(limit) - int((directory / usage_name).read_text()))
         except (OSError, ValueError):
             continue
     return min(limits) if limits else 2**62
+
+
+#: the files of a controller's limit (and usage) in cgroup v2 and v1
+_CGROUP_FILES = {"memory": (("memory.max", "memory.current"), ("memory.limit_in_bytes", "memory.usage_in_bytes")),
+                 "cpu": (("cpu.max", None), ("cpu.cfs_quota_us", "cpu.cfs_period_us"))}
+
+
+def _cgroup_dirs(controller: str, proc_cgroup: str = "/proc/self/cgroup", mount: str = "/sys/fs/cgroup"):
+    """(directory, file names) of the process's own cgroup for ``controller`` and of each ancestor.
+
+    From ``proc_cgroup``: ``0::/path`` (v2, under ``mount``) or
+    ``N:memory:/path`` (v1, under ``mount/memory``). A path that is not
+    there (a cgroup namespace shows "/") falls back to the mount's root.
+    """
+    v2, v1 = _CGROUP_FILES[controller]
+    try:
+        lines = Path(proc_cgroup).read_text().splitlines()
+    except OSError:
+        lines = []
+    seen = set()
+    for line in lines:
+        hierarchy, controllers, path = (line.split(":", 2) + ["", ""])[:3]
+        if hierarchy == "0" and controllers == "":
+            root, files = Path(mount), v2
+        elif controller in controllers.split(","):
+            root, files = Path(mount) / controllers, v1
+        else:
+            continue
+        here = root / path.strip().lstrip("/")
+        if not here.is_dir():
+            here = root
+        while True:
+            if here not in seen:
+                seen.add(here)
+                yield here, files
+            if here == root or here.parent == here:
+                break
+            here = here.parent
+    for root, files in ((Path(mount), v2), (Path(mount) / controller, v1)):   # no /proc/self/cgroup entry
+        if root not in seen and root.is_dir():
+            yield root, files
 
 
 def task_size(task) -> tuple[int, int]:
@@ -145,18 +189,17 @@ def _size(nbytes: float) -> str:
         nbytes /= 1000
 
 
-def _cgroup_cpus() -> float:
-    try:                                           # cgroup v2: "quota period" or "max period"
-        quota, period = Path("/sys/fs/cgroup/cpu.max").read_text().split()
-        if quota != "max":
-            return max(1, math.floor(int(quota) / int(period)))
-    except (OSError, ValueError):
-        pass
-    try:                                           # cgroup v1
-        quota = int(Path("/sys/fs/cgroup/cpu/cpu.cfs_quota_us").read_text())
-        period = int(Path("/sys/fs/cgroup/cpu/cpu.cfs_period_us").read_text())
-        if quota > 0:
-            return max(1, math.floor(quota / period))
-    except (OSError, ValueError):
-        pass
-    return math.inf
+def _cgroup_cpus(proc_cgroup: str = "/proc/self/cgroup", mount: str = "/sys/fs/cgroup") -> float:
+    """The fewest CPUs a quota of the process's own cgroup or an ancestor allows (inf: none)."""
+    cpus = [math.inf]
+    for directory, (quota_name, period_name) in _cgroup_dirs("cpu", proc_cgroup, mount):
+        try:
+            if period_name is None:                # v2: "quota period" or "max period"
+                quota, period = (directory / quota_name).read_text().split()
+            else:                                  # v1
+                quota, period = ((directory / n).read_text().strip() for n in (quota_name, period_name))
+            if quota != "max" and int(quota) > 0:
+                cpus.append(max(1, math.floor(int(quota) / int(period))))
+        except (OSError, ValueError):
+            continue
+    return min(cpus)

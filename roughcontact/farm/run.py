@@ -9,18 +9,22 @@ it finishes; the combined dataset is written last.
 from __future__ import annotations
 
 import math
+import signal
 import sys
+import threading
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
 from .. import __version__
-from ..errors import StorageError
+from ..errors import InputError, StorageError
 from .combine import combine, write_combined
 from .definition import Study
-from .executor import STORAGE_CODE, group_count, on_root, record_failures_with, run_farm
+from .executor import DRAIN_CODE, STORAGE_CODE, TaskQueue, group_count, on_root, record_failures_with, run_farm
 from .guards import check_operator_memory, oversubscription, storage_estimate, task_size
+from .leases import Leases, shard_of
 from .progress import Progress
 from .records import FAILED, task_groups
 from .store import DAMAGED, TaskStore
@@ -38,26 +42,37 @@ class RunSummary:
     failed: dict[int, str] = field(default_factory=dict)
     missing: dict[int, str] = field(default_factory=dict)
     warned: int = 0
+    waiting: int = 0             # tasks not on disk at the end (other shards or jobs, or drained)
+    drained: bool = False
     paths: dict[str, Path] = field(default_factory=dict)
     elapsed: float = 0.0
     solved_here: int = 0
 
     @property
     def exit_code(self) -> int:
-        """0 when every task completed; 1 when some failed (their results are recorded) or have
-        no result (a file damaged after it was written: the next run solves it again)."""
+        """0 when every task completed (or, for a shard, its part); 1 when some failed (their
+        results are recorded) or have no result (a file damaged after it was written: the next
+        run solves it again); :data:`~.executor.DRAIN_CODE` when drained by a signal."""
+        if self.drained:
+            return DRAIN_CODE
         return 1 if self.failed or self.missing else 0
 
 
 def run_study(study: Study, comm, output: str | Path, log: Callable = print, quiet: bool = False,
-              retry_failed: bool = False, ranks_per_task: int | None = None) -> RunSummary:
+              retry_failed: bool = False, ranks_per_task: int | None = None,
+              shard: tuple[int, int] | None = None) -> RunSummary:
     """Solve every task of ``study`` not already on disk under ``output``, then combine them.
 
     Collective over ``comm``. Writes ``<output>/<name>.tasks/task-*.nc`` as
     tasks finish, then ``<output>/<name>.nc`` and, when a load sweep has
     completed, ``<output>/<name>_area_vs_load.png`` (Fig. 5a, with
     confidence bands over seeds). ``ranks_per_task`` overrides the study's.
-    ``retry_failed`` solves again the tasks recorded as failed.
+    ``retry_failed`` solves again the tasks recorded as failed. ``shard``
+    (i, n) solves only part i of n (:func:`~.leases.shard_of`). Tasks are
+    claimed by lease files (:mod:`.leases`), so jobs sharing ``output`` split
+    the work; the combined dataset is written by the run that finds every
+    task on disk at its end. SIGTERM or SIGUSR1 drains the run: no new task
+    starts, those in flight finish, and it ends with :data:`DRAIN_CODE`.
     """
     from petsc4py import PETSc  # noqa: F401  PETSc starts collectively over all ranks on first import:
     #                             here, before the farm sends ranks their separate ways
@@ -72,6 +87,8 @@ def run_study(study: Study, comm, output: str | Path, log: Callable = print, qui
     if rank == 0:
         _warn_found(store, found)
     pending = [t for t in tasks if t.key not in found.done]
+    if shard is not None:
+        pending = [t for t in pending if shard_of(t.key, shard[1]) == shard[0]]
     count = group_count(comm.Get_size(), k)      # refuses a k that does not divide the ranks
     grid, footprint = on_root(comm, _sizes, pending)
     if pending:
@@ -82,8 +99,10 @@ def run_study(study: Study, comm, output: str | Path, log: Callable = print, qui
     if crowded and rank == 0:
         print(f"roughcontact: warning: {crowded}", file=sys.stderr)
     resumed = len(tasks) - len(pending)
-    say(f"{study.name}: {len(tasks)} task(s), {resumed} already done, {comm.Get_size()} rank(s) in "
-        f"{count} group(s) of {k}, operator {study.normal.operator}, method {study.normal.method}")
+    say(f"{study.name}: {len(tasks)} task(s), {resumed} already done"
+        + (f", shard {shard[0]}/{shard[1]}: {len(pending)} to solve" if shard else "")
+        + f", {comm.Get_size()} rank(s) in {count} group(s) of {k}, operator {study.normal.operator}, "
+          f"method {study.normal.method}")
     if pending:
         say(f"  storage: {storage_estimate(study, grid)}")
     on_root(comm, store.claim, study)
@@ -96,15 +115,28 @@ def run_study(study: Study, comm, output: str | Path, log: Callable = print, qui
         # the leader writes the file itself: no result travels through rank 0
         return store.write_task(task, task_groups(outcome)) if group.Get_rank() == 0 else None
 
+    retrying = {t.key for t in pending if store.path(t).exists()} if rank == 0 and retry_failed else ()
+    leases = Leases(store.directory, store.path, retrying) if rank == 0 else None
+    queue = TaskQueue(pending, leases.claim) if leases is not None else pending
+
     def deliver(task, written):
+        leases.release(task)
         progress.task_done(written.failed, written.size)
 
     try:
-        with record_failures_with(store.record_failure):
-            run_farm(pending, comm, k, work, deliver)
+        with record_failures_with(store.record_failure), _draining(queue if rank == 0 else None):
+            try:
+                run_farm(queue, comm, k, work, deliver)
+            finally:
+                if leases is not None:
+                    leases.close()
             progress.close()
-            attrs = _provenance(study, comm, k, started, _petsc_options())
-            paths = on_root(comm, _finish, study, store, attrs, tasks)
+            drained = comm.bcast(rank == 0 and queue.draining.is_set() and queue.left > 0, root=0)
+            waiting = on_root(comm, lambda: sum(not store.path(t).exists() for t in tasks))
+            paths = {"failed": {}, "missing": {}, "warned": 0}
+            if not waiting:
+                attrs = _provenance(study, comm, k, started, _petsc_options())
+                paths = on_root(comm, _finish, study, store, attrs, tasks)
     except StorageError as exc:           # raised here on one rank, or by rank 0 on every rank
         if rank == 0:
             store.record_failure(f"roughcontact: error: {exc}", STORAGE_CODE, rank)
@@ -112,8 +144,60 @@ def run_study(study: Study, comm, output: str | Path, log: Callable = print, qui
     solved = comm.bcast(progress.solved, root=0)
     summary = RunSummary(name=study.name, tasks=len(tasks), resumed=resumed, solved=solved,
                          failed=paths.pop("failed"), missing=paths.pop("missing"), warned=paths.pop("warned"),
-                         paths=paths, elapsed=time.perf_counter() - t0, solved_here=solved_here[0])
+                         paths=paths, elapsed=time.perf_counter() - t0, solved_here=solved_here[0],
+                         waiting=waiting, drained=drained)
     say(_closing(summary, progress.written))
+    return summary
+
+
+@contextmanager
+def _draining(queue):
+    """SIGTERM and SIGUSR1 (a wall-time limit coming) drain ``queue`` (rank 0) instead of killing
+    the rank; on the other ranks they are noted and ignored, so tasks in flight finish."""
+    def handler(signum, frame):
+        if queue is not None:
+            if not queue.draining.is_set():
+                print(f"roughcontact: {signal.Signals(signum).name}: draining: no new task starts, those "
+                      "in flight finish; the same command resumes", file=sys.stderr, flush=True)
+            queue.drain()
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {s: signal.signal(s, handler) for s in (signal.SIGTERM, signal.SIGUSR1)}
+    try:
+        yield
+    finally:
+        for s, h in previous.items():
+            signal.signal(s, h)
+
+
+def combine_study(study: Study, output: str | Path, log: Callable = print) -> RunSummary:
+    """Combine the task files of ``study`` under ``output`` into ``<name>.nc``, solving nothing.
+
+    What ``roughcontact combine`` does, on one process (no MPI launcher
+    needed): the files are checked as a run checks them (damaged ones moved
+    aside); tasks without a file are left without a result (status −1) and
+    counted as missing, so the same ``roughcontact run`` completes them.
+    """
+    from mpi4py import MPI
+
+    t0 = time.perf_counter()
+    started = time.strftime("%Y-%m-%dT%H:%M:%S%z")
+    tasks = study.tasks()
+    store = TaskStore(output, study.name)
+    if not store.check_owner(study):
+        raise InputError("--output", f"no task files of study {study.name!r} under {output} (no "
+                                     f"{store.directory}); run it first")
+    found = store.resume(tasks)
+    _warn_found(store, found)
+    attrs = _provenance(study, MPI.COMM_SELF, study.ranks_per_task, started, _petsc_options())
+    paths = _finish(study, store, attrs, tasks)
+    missing = paths.pop("missing")
+    summary = RunSummary(name=study.name, tasks=len(tasks), resumed=len(tasks) - len(missing), solved=0,
+                         failed=paths.pop("failed"), missing=missing, warned=paths.pop("warned"), paths=paths,
+                         elapsed=time.perf_counter() - t0)
+    log(_closing(summary, 0))
     return summary
 
 
@@ -157,6 +241,9 @@ def _finish(study: Study, store: TaskStore, attrs: dict, tasks: list) -> dict:
     missing = {}
 
     def damaged(task, path, why):
+        if not path.exists():
+            missing[task.index] = "no task file"
+            return
         missing[task.index] = f"{why}; moved aside to {store.set_aside(path)}"
         print(f"roughcontact: warning: the file of {task.name} was damaged ({why}): moved aside to "
               f"{path.name}{DAMAGED}; the next run solves it again", file=sys.stderr)
@@ -231,7 +318,14 @@ def _closing(summary: RunSummary, written: int) -> str:
         lines.append(f"  {len(indices)} failed with {reason} (tasks {shown})")
     if summary.missing:
         shown = ", ".join(map(str, sorted(summary.missing)[:10])) + (" …" if len(summary.missing) > 10 else "")
-        lines.append(f"  {len(summary.missing)} without a result (damaged files moved aside; tasks {shown}): "
-                     "run the same command again to solve them")
-    lines.append("  wrote " + " and ".join(str(p) for p in summary.paths.values()))
+        lines.append(f"  {len(summary.missing)} without a result (no task file, or a damaged one moved aside; "
+                     f"tasks {shown}): roughcontact run of the same study solves them")
+    if summary.drained:
+        lines.append(f"  drained by a signal: {summary.waiting} task(s) not solved; run the same command again "
+                     "to resume")
+    elif summary.waiting:
+        lines.append(f"  not combined: {summary.waiting} task(s) of other shards or jobs are not on disk yet; "
+                     "the run that finishes last combines (or roughcontact combine)")
+    if summary.paths:
+        lines.append("  wrote " + " and ".join(str(p) for p in summary.paths.values()))
     return "\n".join(lines)

@@ -33,6 +33,7 @@ from __future__ import annotations
 import errno
 import json
 import os
+import socket
 import time
 import zlib
 from pathlib import Path
@@ -48,6 +49,8 @@ MANIFEST = "study.json"
 LAYOUT = 2
 #: the suffix of a task file that failed its check
 DAMAGED = ".damaged"
+#: this host's name as a writer's ``.part`` files carry it (no dots)
+HOST = socket.gethostname().replace(".", "_")
 
 
 class Written(NamedTuple):
@@ -157,8 +160,9 @@ class TaskStore:
         """
         if not self.directory.exists():
             return Resume(set(), [], 0)
-        for stale in self.directory.glob("*.part"):
-            stale.unlink(missing_ok=True)
+        for part in self.directory.glob("*.part"):
+            if _abandoned(part):
+                part.unlink(missing_ok=True)
         by_name = {self.path(t).name: t for t in tasks}
         done, damaged, unused = set(), [], 0
         for path in sorted(self.directory.glob("task-*.nc")):
@@ -202,7 +206,7 @@ class TaskStore:
         Any OSError is a :class:`StorageError` naming ``what`` and the path,
         the ``.part`` file removed.
         """
-        part = path.with_name(path.name + ".part")
+        part = path.with_name(f"{path.name}.{HOST}.{os.getpid()}.part")
         try:
             _write_file(part, payload)
             os.replace(part, path)
@@ -318,6 +322,22 @@ def task_status(path: Path) -> int:
     """The ``status`` of a task file (0 completed, 1 failed)."""
     with h5py.File(path, "r") as f:
         return int(f["status"][()])
+
+
+def _abandoned(part: Path) -> bool:
+    """Whether a ``.part`` file is left by a writer that is gone: ``<file>.<host>.<pid>.part`` of a
+    dead process of this host, or of another host and older than a stale lease; any other name."""
+    from .leases import STALE_SECONDS, _alive
+
+    pieces = part.name.rsplit(".", 3)
+    if len(pieces) != 4 or not pieces[2].isdigit():
+        return True
+    if pieces[1] == HOST:
+        return not _alive(int(pieces[2]))
+    try:
+        return time.time() - part.stat().st_mtime > STALE_SECONDS
+    except OSError:
+        return False
 
 
 def _write_file(path: Path, payload: bytes) -> None:

@@ -181,10 +181,10 @@ def test_a_full_disk_at_the_combine_leaves_no_half_written_file_and_resumes(comm
         run_study(definition, comm, shared_dir, log=quiet, quiet=True)
     message = str(info.value)
     store = TaskStore(shared_dir, "full-disk")
+    comm.Barrier()                          # rank 0 has written the failure record
     assert "\n" not in message and str(store.combined) in message and "No space left on device" in message
     assert "2 task file(s) are safely on disk" in message and "run the same command again" in message
     assert not store.combined.exists() and not list(shared_dir.glob("*.part"))
-    comm.Barrier()
     record = json.loads(store.failure.read_text())
     assert record["exit_status"] == 74 and "No space left" in record["message"]
     monkeypatch.setattr(combine_module, "encode", encode)

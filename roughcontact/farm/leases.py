@@ -34,9 +34,7 @@ HEARTBEAT_SECONDS = 30.0
 class Leases:
     """The leases one job holds in a task directory (rank 0 only), refreshed by a daemon thread."""
 
-    def __init__(self, directory: Path, path_of, retrying=(), stale: float = STALE_SECONDS,
-                 heartbeat: float = HEARTBEAT_SECONDS):
-        self.directory = directory
+    def __init__(self, path_of, retrying=(), stale: float = STALE_SECONDS, heartbeat: float = HEARTBEAT_SECONDS):
         self.path_of = path_of                   # task -> its task file
         self.retrying = set(retrying)            # keys whose (failed) file is to be replaced
         self.stale = stale
@@ -62,9 +60,10 @@ class Leases:
             except FileExistsError:
                 if not self._is_stale(lease):
                     return None
+                taken = lease.with_name(f"{lease.name}.stale.{os.getpid()}")
                 try:                             # take a dead job's lease over: one job wins the rename
-                    os.replace(lease, lease.with_name(f"{lease.name}.stale.{os.getpid()}"))
-                    lease.with_name(f"{lease.name}.stale.{os.getpid()}").unlink(missing_ok=True)
+                    os.replace(lease, taken)
+                    taken.unlink(missing_ok=True)
                 except FileNotFoundError:
                     pass
                 continue

@@ -116,7 +116,7 @@ def run_study(study: Study, comm, output: str | Path, log: Callable = print, qui
         return store.write_task(task, task_groups(outcome)) if group.Get_rank() == 0 else None
 
     retrying = {t.key for t in pending if store.path(t).exists()} if rank == 0 and retry_failed else ()
-    leases = Leases(store.directory, store.path, retrying) if rank == 0 else None
+    leases = Leases(store.path, retrying) if rank == 0 else None
     queue = TaskQueue(pending, leases.claim) if leases is not None else pending
 
     def deliver(task, written):

@@ -318,12 +318,6 @@ def changed_keys(before: dict, after: dict, prefix: str = "") -> list[str]:
     return out
 
 
-def task_status(path: Path) -> int:
-    """The ``status`` of a task file (0 completed, 1 failed)."""
-    with h5py.File(path, "r") as f:
-        return int(f["status"][()])
-
-
 def _abandoned(part: Path) -> bool:
     """Whether a ``.part`` file is left by a writer that is gone: ``<file>.<host>.<pid>.part`` of a
     dead process of this host, or of another host and older than a stale lease; any other name."""

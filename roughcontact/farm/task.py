@@ -16,7 +16,6 @@ from dataclasses import fields as dataclass_fields
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 
 from ..checks import check_choice
 from ..errors import RoughContactError

@@ -55,10 +55,10 @@ if os.environ.get("RC_PIDS"):                          # each rank's pid, for a 
 solve, log, fault = farm_run.solve_task, os.environ["RC_SOLVE_LOG"], os.environ.get("RC_FAULT")
 done = []
 
-def counted(task, comm):
+def counted(task, comm, **options):
     if fault and fault == f"{rank}:{len(done)}":     # "<rank>:<tasks it solves first>"
         raise RuntimeError(f"injected fault in task {task.index}")
-    outcome = solve(task, comm)
+    outcome = solve(task, comm, **options)
     done.append(task.index)
     if comm.Get_rank() == 0:
         with open(log, "a") as stream:
@@ -101,6 +101,7 @@ body2 = { E = 20e9, nu = 0.0 }
 loads = [50.0, 100.0, 200.0, 300.0, 400.0, 500.0]
 [farm]
 ranks_per_task = {k}
+root_works = {root_works}
 '''
 TASKS = 24
 KINDS = ("kill-job", "kill-rank", "raise", "enospc", "truncate")
@@ -114,8 +115,9 @@ class Job:
         (self.root / "driver.py").write_text(DRIVER)
         self.write_study(1)
 
-    def write_study(self, k: int) -> None:
-        (self.root / "study.toml").write_text(STUDY.replace("{k}", str(k)))
+    def write_study(self, k: int, root_works: bool = True) -> None:
+        text = STUDY.replace("{k}", str(k)).replace("{root_works}", str(root_works).lower())
+        (self.root / "study.toml").write_text(text)
 
     def command(self, output: str, *extra: str, ranks: int = 2) -> list[str]:
         launcher = Path(sys.executable).parent / "mpiexec"

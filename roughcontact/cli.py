@@ -76,11 +76,10 @@ def _run_parser(sub) -> None:
 
 def _run(args, comm) -> int:
     from .farm import load_study, run_study
-
     from .farm.leases import parse_shard
 
     shard = parse_shard(args.shard)
-    study = load_study(args.study)
+    study = load_study(args.study, comm)
     summary = run_study(study, comm, args.output, quiet=args.quiet, retry_failed=args.retry_failed,
                         ranks_per_task=args.ranks_per_task, shard=shard)
     if comm.Get_rank() == 0 and summary.solved_here:
@@ -102,11 +101,9 @@ def _combine_parser(sub) -> None:
 
 def _combine(args, comm) -> int:
     from .farm import combine_study, load_study
-    from .farm.executor import on_root
 
-    study = load_study(args.study)
-    summary = on_root(comm, combine_study, study, args.output)
-    return summary.exit_code
+    study = load_study(args.study, comm)
+    return combine_study(study, args.output, comm=comm).exit_code
 
 
 def _analyse_parser(sub) -> None:

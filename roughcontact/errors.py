@@ -56,3 +56,7 @@ class StorageError(RoughContactError):
     def __init__(self, path, message: str):
         self.path = str(path)
         super().__init__(message)
+
+
+class TaskTimeout(RoughContactError):
+    """A task of a study ran past its ``[farm] task_timeout``: the loads solved before are kept."""

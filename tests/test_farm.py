@@ -165,6 +165,33 @@ def test_failed_task_is_recorded_and_the_rest_complete(comm, shared_dir, monkeyp
     assert retried.solved == 1 and retried.exit_code == 0
 
 
+@pytest.mark.parametrize("k", [1, 2])
+def test_a_task_past_its_timeout_stops_at_the_next_load_and_keeps_what_it_solved(comm, shared_dir, k):
+    """``[farm] task_timeout`` of 1 ns has always passed once the first load is solved: every task
+    keeps that load, stops before the second with a TaskTimeout naming the limit and is recorded
+    failed; on a group of two ranks both stop at the same load (no hang). Run again with a long
+    limit and --retry-failed, the tasks are solved whole and equal a run without a limit."""
+    if comm.Get_size() % k:
+        pytest.skip("k must divide the ranks")
+    study = load_study(tiny(name="late", tangential={}, farm={"ranks_per_task": k, "task_timeout": 1e-9}))
+    summary = run_study(study, comm, shared_dir / "late", log=quiet, quiet=True)
+    assert summary.exit_code == 1 and sorted(summary.failed) == list(range(6))
+    assert all(m.startswith("TaskTimeout: [farm] task_timeout of 1e-09 s passed after 1 of 3 load(s)")
+               for m in summary.failed.values()), summary.failed
+    ds = open_group(summary.paths["netcdf"])
+    assert (ds["status"] == 1).all()
+    assert np.isfinite(ds["closure"].sel(normal_load=2.0)).all()
+    assert ds["closure"].sel(normal_load=[5.0, 10.0]).isnull().all()
+    patient = load_study(tiny(name="late", tangential={}, farm={"ranks_per_task": k, "task_timeout": 1e6}))
+    retried = run_study(patient, comm, shared_dir / "late", log=quiet, quiet=True, retry_failed=True)
+    assert retried.solved == 6 and retried.exit_code == 0
+    fresh = run_study(load_study(tiny(name="late", tangential={}, farm={"ranks_per_task": k})), comm,
+                      shared_dir / "fresh", log=quiet, quiet=True)
+    a, b = open_group(retried.paths["netcdf"]), open_group(fresh.paths["netcdf"])
+    for var in ("closure", "contact_fraction", "contact"):
+        np.testing.assert_array_equal(a[var], b[var], err_msg=var)
+
+
 def test_resume_recomputes_only_missing_tasks(comm, shared_dir):
     """Deleting two task files (and leaving a torn ``.part``) makes the next run solve exactly
     those two; the other files are not rewritten and the result is the same, bit for bit."""
@@ -287,6 +314,37 @@ def test_task_files_read_back_as_written(comm):
                 expected.attrs = netcdf_attrs(ds.attrs)
                 xr.testing.assert_identical(back.load(), expected)
     assert set(task_groups(failed)) == {"/"}
+
+
+def test_what_a_leader_hands_rank_0_is_what_its_file_reads_back(comm):
+    """A leader sends rank 0 its task's small variables from memory (``held_groups``) instead of
+    reading its file back: for a task with tangential and fretting groups, fields "all", and a
+    task that failed before its first load, they equal what the file reads back without fields
+    (names and their order, dimensions, coordinates, dtypes, values bit for bit, attributes), so a
+    study combined from finished tasks and from files on resume is one dataset."""
+    from roughcontact.farm.netcdf import Unread, held_groups, read_groups
+    from roughcontact.farm.records import encode
+
+    study = load_study(tiny(name="held", axes={"mate_shift": [[1e-4, 0.0], [5e-3, 0.0]]},
+                            surface={"generator": "midpoint", "levels": 4, "spacing": 1e-4, "rms_height": 1e-5,
+                                     "fractal_dimension": 2.3, "seed": 1}))
+    for task in study.tasks():
+        groups = task_groups(solve_task(task, MPI.COMM_SELF))
+        held, read = held_groups(groups), read_groups(encode(groups), fields=False)
+        assert list(held) == list(read) and len(held) == (3 if task.index == 0 else 1)
+        for name, (variables, attrs) in read.items():
+            mine, my_attrs = held[name]
+            assert list(mine) == list(variables) and my_attrs.keys() == attrs.keys()
+            assert all(np.array_equal(my_attrs[k], attrs[k]) for k in attrs), name
+            for key, var in variables.items():
+                ours = mine[key]
+                assert (ours.dims, ours.is_coord, ours.attrs.keys()) == (var.dims, var.is_coord, var.attrs.keys()), key
+                assert all(np.array_equal(ours.attrs[k], var.attrs[k]) for k in var.attrs), key
+                if isinstance(var.values, Unread):
+                    assert ours.values == var.values, key
+                else:
+                    assert (ours.values.dtype, ours.values.shape) == (var.values.dtype, var.values.shape), key
+                    assert np.array_equal(ours.values, var.values, equal_nan=var.values.dtype.kind == "f"), key
 
 
 def test_task_file_larger_than_the_study_is_refused_by_name(tmp_path):

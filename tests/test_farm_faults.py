@@ -234,3 +234,19 @@ def test_two_groups_of_two_ranks_beside_each_other(job, reference):
             np.testing.assert_allclose(b, a, rtol=1e-6, atol=1e-8 * scale, err_msg=name)
         else:
             np.testing.assert_array_equal(b, a, err_msg=name)
+
+
+def test_rank_0_that_does_not_work_only_hands_out_and_the_dataset_is_unchanged(job, reference):
+    """4 ranks (oversubscribed here) with ``[farm] root_works = false``: rank 0 solves no task, the
+    three other ranks solve them all, and the dataset is the two-rank run's bit for bit (the same
+    one-rank solves, only placed by another rank)."""
+    job.write_study(1, root_works=False)
+    run = subprocess.run(job.command("out", ranks=4), env=job.env("a.log"), capture_output=True, text=True,
+                         timeout=300)
+    assert run.returncode == 0, run.stderr
+    solves = job.solves("a.log")
+    assert sorted(task for task, _, _ in solves) == list(range(TASKS))
+    assert {rank for _, _, rank in solves} == {1, 2, 3}
+    combined = scalars(job.root / "out" / "faults.nc")
+    for name in reference.data_vars:
+        np.testing.assert_array_equal(combined[name].values, reference[name].values, err_msg=name)

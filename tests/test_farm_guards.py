@@ -51,3 +51,42 @@ def test_cgroup_v1_memory_controller_and_a_namespace_that_shows_the_root(tmp_pat
     assert available_memory(str(proc), str(mount)) == 3 * MiB - MiB
     assert _cgroup_cpus(str(proc), str(mount)) == math.inf
 
+
+
+def test_a_study_whose_combined_dataset_rank_0_cannot_hold_is_refused_before_any_solve():
+    """Rank 0 keeps each task's curves along the loads (fields are streamed): 10⁵ tasks of
+    10⁴ loads are at least 10⁵ × 10⁴ × 8 B = 8 GB for one float64 curve, and the study's ~40
+    curves over 320 GB, beyond what any rank here can have; 10 tasks of 2 loads pass."""
+    import pytest
+
+    from roughcontact.errors import InputError
+    from roughcontact.farm import load_study
+    from roughcontact.farm.guards import check_combine_memory, combine_memory
+
+    def study(seeds, loads):
+        return load_study({"name": "big", "surface": {"generator": "midpoint", "levels": 3, "spacing": 1e-4,
+                                                      "rms_height": 1e-5, "fractal_dimension": 2.3},
+                           "axes": {"seeds": seeds}, "materials": {"body1": {"E": 20e9, "nu": 0.0}},
+                           "normal": {"loads": [float(p) for p in range(1, loads + 1)]}})
+
+    big = study(100_000, 10_000)
+    assert combine_memory(big, 81) > 40 * 100_000 * 10_000 * 8
+    with pytest.raises(InputError, match="combining the 100000 tasks of big needs about .* on rank 0") as info:
+        check_combine_memory(big, 81)
+    assert info.value.parameter == "axes"
+    check_combine_memory(study(10, 2), 81)
+
+
+def test_groups_that_span_nodes_are_found_from_the_placement_of_their_ranks(comm):
+    """Groups are k consecutive ranks: with 4 ranks per node, k = 2 and k = 4 keep every group on
+    a node, k = 8 spans two nodes by construction, and 3 ranks per node (6 ranks, k = 2) split the
+    middle group; a cyclic placement splits every group. On this machine (one node) no group of
+    the suite's communicator spans nodes, whatever k divides it."""
+    from roughcontact.farm.guards import straddling, straddling_groups
+
+    block = ["a"] * 4 + ["b"] * 4
+    assert straddling_groups(block, 2) == [] and straddling_groups(block, 4) == []
+    assert straddling_groups(block, 8) == [0]
+    assert straddling_groups(["a"] * 3 + ["b"] * 3, 2) == [1]
+    assert straddling_groups(["a", "b"] * 4, 2) == [0, 1, 2, 3]
+    assert straddling(comm, comm.Get_size()) is None and straddling(comm, 1) is None

@@ -85,6 +85,17 @@ def test_a_grown_and_reordered_ensemble_keeps_every_finished_task(comm, shared_d
     summary = run_study(grown, comm, shared_dir / "a", log=quiet, quiet=True)
     assert (summary.resumed, summary.solved, summary.exit_code) == (2, 4, 0)
     assert mtimes(store, first.tasks()) == kept
+    # each file names the study (and the definition) that wrote it, its task and the code version
+    import h5py
+
+    from roughcontact import __version__
+
+    for task in grown.tasks():
+        with h5py.File(store.path(task), "r") as f:
+            writer = first if task.key in kept else grown
+            assert (f.attrs["study"], f.attrs["study_sha256"]) == ("grown", writer.identity)
+            assert (f.attrs["task_key"], f.attrs["roughcontact_version"]) == (task.key, __version__)
+    assert first.identity != grown.identity
     fresh = run_study(grown, comm, shared_dir / "b", log=quiet, quiet=True)
     assert fresh.solved == 6
     assert_same(dataset(summary.paths["netcdf"]), dataset(fresh.paths["netcdf"]))
@@ -151,7 +162,7 @@ def test_a_file_damaged_before_the_combine_leaves_its_task_without_a_result(tmp_
     store.path(tasks[1]).write_bytes(whole[:1000])
     handed = []
     root = combine(definition, {t.index: store.path(t) for t in tasks},
-                   lambda task, path, why: handed.append((task.index, path)))["/"]
+                   lambda task, path, why: handed.append((task.index, path))).load()["/"]
     assert handed == [(1, store.path(tasks[1]))]
     assert root["status"].values.tolist() == [[0, -1, 0]]
     assert root["closure"].isel(seed=1).isnull().all()
@@ -171,7 +182,7 @@ def test_a_full_disk_at_the_combine_leaves_no_half_written_file_and_resumes(comm
     definition = load_study(study("full-disk"))
     encode = combine_module.encode
 
-    def full(groups, target=None):
+    def full(groups, target=None, **layout):
         with open(target, "wb") as stream:
             stream.write(b"\0" * 100)          # a partly written file, as a real full disk leaves
         raise OSError(errno.ENOSPC, "No space left on device")
@@ -238,3 +249,37 @@ def test_combine_command_solves_nothing_and_marks_tasks_without_a_file(comm, sha
     partial = dataset(store.combined)
     assert partial["status"].values.tolist() == [[0, -1, 0]]
     assert partial["closure"].isel(seed=1).isnull().all()
+
+
+def test_the_combined_fields_are_each_task_files_fields_streamed_into_place(comm, shared_dir):
+    """The combined dataset's fields are written task by task from the task files (never the
+    study's whole fields in memory): for mated shifts (lenses of different extents in one
+    frame), each task's fields equal its own file's at its offset, the rest is NaN (−1 for
+    the int8 contact set), and the streamed file equals the same dataset built in memory.
+    Equality is exact: values are copied, not computed."""
+    from roughcontact.farm.combine import combine
+
+    raw = study("streamed", seeds=1, output={"fields": "all"},
+                axes={"mate_shift": [[0.0, 3e-4], [-4e-4, 0.0], [5e-4, 2e-4]]})
+    raw["surface"].update(levels=4, fractal_dimension=2.3, seed=3, footprint_diameter=1.2e-3)
+    definition = load_study(raw)
+    summary = run_study(definition, comm, shared_dir, log=quiet, quiet=True)
+    store = TaskStore(shared_dir, "streamed")
+    combined = dataset(summary.paths["netcdf"])
+    assert "differ in extent" in combined.attrs["fields_note"]
+    s = float(combined["grid_spacing"].values.flat[0])
+    for task in definition.tasks():
+        own = dataset(store.path(task))
+        mine = combined.isel(shift=task.position[0])
+        i0 = int(round((float(own["origin_x"]) - float(combined["x"][0])) / s))
+        j0 = int(round((float(own["origin_y"]) - float(combined["y"][0])) / s))
+        inside = {"x": slice(i0, i0 + own.sizes["x"]), "y": slice(j0, j0 + own.sizes["y"])}
+        for name in ("pressure", "gap", "contact"):
+            np.testing.assert_array_equal(mine[name].isel(inside).values, own[name].values)
+            outside = mine[name].values.copy()
+            outside[:, inside["x"], inside["y"]] = own[name].values * 0 + (-1 if name == "contact" else np.nan)
+            assert (outside == -1).all() if name == "contact" else np.isnan(outside).all()
+    if comm.Get_rank() == 0:
+        loaded = combine(definition, {t.index: store.path(t) for t in definition.tasks()}).load()["/"]
+        loaded = loaded.drop_vars([v for v in loaded.data_vars if "elapsed" in v])
+        xr.testing.assert_equal(loaded.drop_attrs(), combined.drop_attrs())

@@ -154,6 +154,9 @@ loads = [1.0]
     ({"tangential": {"steps": 3}}, "tangential.friction"),
     ({"output": {"fields": "some"}}, "output.fields"),
     ({"farm": {"ranks_per_task": 0}}, "farm.ranks_per_task"),
+    ({"farm": {"root_works": "no"}}, "farm.root_works"),
+    ({"farm": {"task_timeout": 0}}, "farm.task_timeout"),
+    ({"farm": {"task_timeout": "1h"}}, "farm.task_timeout"),
 ])
 def test_bad_study_names_the_key(change, parameter):
     raw = {**TINY, **change}

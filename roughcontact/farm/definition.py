@@ -82,6 +82,8 @@ class Study(Loading):
     dimensions: tuple[Dimension, ...]
     interface: Interface | None
     ranks_per_task: int = 1
+    root_works: bool = True             # rank 0 solves tasks too while it hands them out
+    task_timeout: float | None = None   # s: a task still running then stops at its next load (failed)
     description: str = ""
     text: str = ""
     definition: str = ""
@@ -185,8 +187,12 @@ def _sha256(path) -> str:
         return "unreadable"
 
 
-def load_study(source: str | Path | dict | None = None) -> Study:
-    """A :class:`Study` from a TOML path, a dict, or the built-in default (None)."""
+def load_study(source: str | Path | dict | None = None, comm=None) -> Study:
+    """A :class:`Study` from a TOML path, a dict, or the built-in default (None).
+
+    With ``comm`` (collective), rank 0 alone reads and hashes the measured
+    surfaces and sends the hashes to the others: one read per job, not one
+    per rank."""
     base_dir, text = None, ""
     if source is None:
         raw = DEFAULT_STUDY
@@ -230,17 +236,23 @@ def load_study(source: str | Path | dict | None = None) -> Study:
     schema.only(output, {"fields"}, "output")
     fields = check_fields(schema.string("output.fields", output.get("fields", "contact")), "output.fields")
     farm = schema.section(raw, "farm")
-    schema.only(farm, {"ranks_per_task"}, "farm")
+    schema.only(farm, {"ranks_per_task", "root_works", "task_timeout"}, "farm")
     ranks = schema.integer("farm.ranks_per_task", farm.get("ranks_per_task", 1), minimum=1)
+    root_works = farm.get("root_works", True)
+    if not isinstance(root_works, bool):
+        raise InputError("farm.root_works", f"must be true or false, got {root_works!r}")
+    timeout = farm.get("task_timeout")
+    timeout = None if timeout is None else schema.number("farm.task_timeout", timeout, positive=True)
     study = Study(name=name, surface=surface, dimensions=dimensions, interface=interface, loads=loads,
                   load_dim=load_dim, normal=normal, tangential=tangential, fretting=fretting, fields=fields,
-                  ranks_per_task=ranks,
+                  ranks_per_task=ranks, root_works=root_works, task_timeout=timeout,
                   description=schema.string("description", raw.get("description", "")),
                   text=text or json.dumps(raw, indent=1, default=str), base_dir=base_dir)
     if surface["generator"] == "file":       # each measured surface read and hashed once
         paths = {values.get("path", surface.get("path")) for _, values in positions(dimensions)}
         paths = {str(base_dir / p) if base_dir is not None else p for p in paths}
-        study = replace(study, file_hashes={p: _sha256(p) for p in sorted(paths)})
+        hashes = {p: _sha256(p) for p in sorted(paths)} if comm is None or comm.Get_rank() == 0 else None
+        study = replace(study, file_hashes=hashes if comm is None else comm.bcast(hashes, root=0))
     return replace(study, definition=_definition(raw, study))
 
 

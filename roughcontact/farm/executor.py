@@ -124,7 +124,7 @@ class TaskQueue:
 
 
 def run_farm(tasks, comm, ranks_per_task: int, work: Callable, deliver: Callable,
-             backoff: float = 0.002) -> None:
+             backoff: float = 0.002, root_works: bool = True) -> None:
     """Solve ``tasks`` (a list, or a :class:`TaskQueue` on rank 0) on groups of ``ranks_per_task``
     ranks of ``comm`` (collective).
 
@@ -133,6 +133,8 @@ def run_farm(tasks, comm, ranks_per_task: int, work: Callable, deliver: Callable
     rank 0 of ``comm``, called from the main thread or from the executor's
     manager thread (so it must be thread-safe), as soon as the task finishes.
     ``backoff`` is the longest sleep (s) of the executor's polling loops.
+    ``root_works`` lets rank 0's group solve tasks while rank 0 hands them
+    out (when MPI gives threads; with one group it always solves).
     """
     from mpi4py import MPI
     from mpi4py.futures import MPICommExecutor
@@ -151,7 +153,7 @@ def run_farm(tasks, comm, ranks_per_task: int, work: Callable, deliver: Callable
         else:
             with MPICommExecutor(groups.leaders, root=0, backoff=backoff) as executor:
                 if executor is not None:
-                    root_works = MPI.Query_thread() >= MPI.THREAD_MULTIPLE
+                    root_works = root_works and MPI.Query_thread() >= MPI.THREAD_MULTIPLE
                     try:
                         _feed(executor, queue, deliver, groups.leaders.Get_size() - 1, root_works, comm)
                     except BaseException:   # abort now: leaving the block would wait for the workers

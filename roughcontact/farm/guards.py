@@ -168,6 +168,33 @@ def oversubscription(comm) -> str | None:
     return None
 
 
+def straddling_groups(nodes: list, size: int) -> list[int]:
+    """The groups of ``size`` consecutive ranks (as :class:`~.executor.Groups` splits them) whose
+    ranks lie on more than one node, ``nodes[r]`` naming rank r's node."""
+    return [g for g in range(len(nodes) // size) if len(set(nodes[g * size:(g + 1) * size])) > 1]
+
+
+def straddling(comm, size: int) -> str | None:
+    """A warning when a group of ``size`` ranks spans nodes (collective): each product of its
+    distributed operator then crosses the network. A rank's node is where MPI places it (the ranks
+    that share memory with it, named by the lowest rank of ``comm`` among them)."""
+    from mpi4py import MPI
+
+    if size == 1:
+        return None
+    node = comm.Split_type(MPI.COMM_TYPE_SHARED)
+    try:
+        name = node.allreduce(comm.Get_rank(), op=MPI.MIN)
+    finally:
+        node.Free()
+    spread = straddling_groups(comm.allgather(name), size)
+    if not spread:
+        return None
+    shown = ", ".join(str(g) for g in spread[:8]) + (" …" if len(spread) > 8 else "")
+    return (f"{len(spread)} group(s) of {size} ranks span nodes (group {shown}): their operator products cross "
+            f"the network; place a multiple of {size} consecutive ranks on each node (e.g. srun --ntasks-per-node)")
+
+
 def storage_estimate(study, grid_nodes: int) -> str:
     """What the results will weigh, said before the run (an upper bound before compression)."""
     tasks = math.prod(study.shape)
@@ -180,6 +207,33 @@ def storage_estimate(study, grid_nodes: int) -> str:
     return (f"fields {study.fields!r}: up to {_size(total)} for {tasks} task(s) × {loads} load(s) "
             f"on up to {grid_nodes} nodes, once in the task files and once in {study.name}.nc "
             f"(fields compressed)")
+
+
+#: bytes rank 0 holds per task and load of a study's small variables (about 40 float64 curves
+#: along the loads), per task (status, message, warnings, scalars), and per tangential state
+_SMALL_PER_LOAD, _SMALL_PER_TASK, _SMALL_PER_STATE = 60 * 8, 4096, 30 * 8
+
+
+def combine_memory(study, grid_nodes: int) -> int:
+    """Bytes rank 0 holds to combine ``study``: the small variables of every task (placed as tasks
+    finish), and one task's fields at a time (read from its file, then written: twice)."""
+    tasks = math.prod(study.shape)
+    loads = len(study.loads)
+    states = study.tangential.steps + 1 if study.tangential is not None else 0
+    small = tasks * (_SMALL_PER_TASK + loads * (_SMALL_PER_LOAD + states * _SMALL_PER_STATE))
+    fields = 2 * loads * (1 + states) * grid_nodes * _FIELD_BYTES[study.fields]
+    return small + fields
+
+
+def check_combine_memory(study, grid_nodes: int) -> None:
+    """Refuse, before the first solve, a study whose combined dataset rank 0 cannot hold."""
+    need, have = combine_memory(study, grid_nodes), available_memory()
+    if need > MEMORY_SHARE * have:
+        raise InputError("axes", (
+            f"combining the {math.prod(study.shape)} tasks of {study.name} needs about {_size(need)} on rank 0 "
+            f"(each task's curves along {len(study.loads)} load(s); fields are streamed from the task files), "
+            f"more than {MEMORY_SHARE:.0%} of the {_size(have)} it can have. Give rank 0 more memory (a node of "
+            f"its own, a larger --mem), or split the study (fewer seeds or axis values per study, fewer loads)"))
 
 
 def _size(nbytes: float) -> str:

@@ -76,14 +76,15 @@ def task_groups(outcome: TaskOutcome) -> dict[str, xr.Dataset]:
     return groups
 
 
-def encode(groups: dict[str, xr.Dataset], target=None):
+def encode(groups: dict[str, xr.Dataset], target=None, deferred=None, fill=None):
     """Write ``groups`` as one NetCDF-4 file (fields compressed, one chunk per grid).
 
-    ``target`` is a path, or None for the file's bytes (what a task sends to rank 0).
+    ``target`` is a path, or None for the file's bytes; ``deferred`` and ``fill``
+    as :func:`~.netcdf.write_groups` takes them (fields written after the layout).
     """
     from .netcdf import write_groups
 
-    return write_groups(groups, target, field_encoding)
+    return write_groups(groups, target, field_encoding, deferred, fill)
 
 
 def field_encoding(ds: xr.Dataset) -> dict:

@@ -20,10 +20,17 @@ from typing import Callable
 
 from .. import __version__
 from ..errors import InputError, StorageError
-from .combine import combine, write_combined
+from .combine import Combiner, combine, read_shared
 from .definition import Study
 from .executor import DRAIN_CODE, STORAGE_CODE, TaskQueue, group_count, on_root, record_failures_with, run_farm
-from .guards import check_operator_memory, oversubscription, storage_estimate, task_size
+from .guards import (
+    check_combine_memory,
+    check_operator_memory,
+    oversubscription,
+    storage_estimate,
+    straddling,
+    task_size,
+)
 from .leases import Leases, shard_of
 from .progress import Progress
 from .records import FAILED, task_groups
@@ -91,13 +98,14 @@ def run_study(study: Study, comm, output: str | Path, log: Callable = print, qui
         pending = [t for t in pending if shard_of(t.key, shard[1]) == shard[0]]
     count = group_count(comm.Get_size(), k)      # refuses a k that does not divide the ranks
     grid, footprint = on_root(comm, _sizes, pending)
+    on_root(comm, check_combine_memory, study, grid)
     if pending:
         check_operator_memory(study, footprint, comm, k)
         if pending[0].surface["generator"] != "file":     # measured surfaces: read whole by task_size
             on_root(comm, _build_surface, pending[0])
-    crowded = oversubscription(comm)
-    if crowded and rank == 0:
-        print(f"roughcontact: warning: {crowded}", file=sys.stderr)
+    for warning in (oversubscription(comm), straddling(comm, k)):
+        if warning and rank == 0:
+            print(f"roughcontact: warning: {warning}", file=sys.stderr)
     resumed = len(tasks) - len(pending)
     say(f"{study.name}: {len(tasks)} task(s), {resumed} already done"
         + (f", shard {shard[0]}/{shard[1]}: {len(pending)} to solve" if shard else "")
@@ -110,23 +118,31 @@ def run_study(study: Study, comm, output: str | Path, log: Callable = print, qui
     solved_here = [0]
 
     def work(task, group):
-        outcome = solve_task(task, group)
+        outcome = solve_task(task, group, timeout=study.task_timeout)
         solved_here[0] += 1
+        if group.Get_rank() != 0:
+            return None
+        groups = task_groups(outcome)       # the file names the study that wrote it, beside its own key
+        groups["/"].attrs.update(study=study.name, study_sha256=study.identity)
         # the leader writes the file itself: no result travels through rank 0
-        return store.write_task(task, task_groups(outcome)) if group.Get_rank() == 0 else None
+        return store.write_task(task, groups)
 
     retrying = {t.key for t in pending if store.path(t).exists()} if rank == 0 and retry_failed else ()
     leases = Leases(store.path, retrying) if rank == 0 else None
     queue = TaskQueue(pending, leases.claim) if leases is not None else pending
 
+    # rank 0 places each task's small variables as it finishes: no task file is read again at the end
+    combiner = Combiner(study) if rank == 0 else None
+
     def deliver(task, written):
+        combiner.add(task, written.content, store.path(task))
         leases.release(task)
         progress.task_done(written.failed, written.size)
 
     try:
         with record_failures_with(store.record_failure), _draining(queue if rank == 0 else None):
             try:
-                run_farm(queue, comm, k, work, deliver)
+                run_farm(queue, comm, k, work, deliver, root_works=study.root_works)
             finally:
                 if leases is not None:
                     leases.close()
@@ -135,8 +151,10 @@ def run_study(study: Study, comm, output: str | Path, log: Callable = print, qui
             waiting = on_root(comm, lambda: sum(not store.path(t).exists() for t in tasks))
             paths = {"failed": {}, "missing": {}, "warned": 0}
             if not waiting:
+                # the tasks of earlier runs: their files read by every rank, not by rank 0 alone
+                read_shared(combiner, tasks, store.path, comm)
                 attrs = _provenance(study, comm, k, started, _petsc_options())
-                paths = on_root(comm, _finish, study, store, attrs, tasks)
+                paths = on_root(comm, _finish, study, store, attrs, tasks, combiner)
     except StorageError as exc:           # raised here on one rank, or by rank 0 on every rank
         if rank == 0:
             store.record_failure(f"roughcontact: error: {exc}", STORAGE_CODE, rank)
@@ -172,32 +190,44 @@ def _draining(queue):
             signal.signal(s, h)
 
 
-def combine_study(study: Study, output: str | Path, log: Callable = print) -> RunSummary:
+def combine_study(study: Study, output: str | Path, log: Callable = print, comm=None) -> RunSummary:
     """Combine the task files of ``study`` under ``output`` into ``<name>.nc``, solving nothing.
 
-    What ``roughcontact combine`` does, on one process (no MPI launcher
-    needed): the files are checked as a run checks them (damaged ones moved
-    aside); tasks without a file are left without a result (status −1) and
-    counted as missing, so the same ``roughcontact run`` completes them.
+    What ``roughcontact combine`` does: on one process (no MPI launcher
+    needed), or collectively on ``comm``, whose ranks share the reading of the
+    task files (:func:`~.combine.read_shared`) while rank 0 checks them first
+    and writes the dataset. The files are checked as a run checks them
+    (damaged ones moved aside); tasks without a file are left without a result
+    (status −1) and counted as missing, so the same ``roughcontact run``
+    completes them.
     """
     from mpi4py import MPI
 
+    comm = comm or MPI.COMM_SELF
     t0 = time.perf_counter()
     started = time.strftime("%Y-%m-%dT%H:%M:%S%z")
     tasks = study.tasks()
     store = TaskStore(output, study.name)
-    if not store.check_owner(study):
-        raise InputError("--output", f"no task files of study {study.name!r} under {output} (no "
-                                     f"{store.directory}); run it first")
-    found = store.resume(tasks)
-    _warn_found(store, found)
+
+    def check():
+        if not store.check_owner(study):
+            raise InputError("--output", f"no task files of study {study.name!r} under {output} (no "
+                                         f"{store.directory}); run it first")
+        _warn_found(store, store.resume(tasks))
+        check_combine_memory(study, _sizes(tasks)[0])
+
+    on_root(comm, check)
+    combiner = Combiner(study) if comm.Get_rank() == 0 else None
+    read_shared(combiner, tasks, store.path, comm)
+    # the provenance of the solves (one rank per task and group as far as the combine knows)
     attrs = _provenance(study, MPI.COMM_SELF, study.ranks_per_task, started, _petsc_options())
-    paths = _finish(study, store, attrs, tasks)
+    paths = on_root(comm, _finish, study, store, attrs, tasks, combiner)
     missing = paths.pop("missing")
     summary = RunSummary(name=study.name, tasks=len(tasks), resumed=len(tasks) - len(missing), solved=0,
                          failed=paths.pop("failed"), missing=missing, warned=paths.pop("warned"), paths=paths,
                          elapsed=time.perf_counter() - t0)
-    log(_closing(summary, 0))
+    if comm.Get_rank() == 0:
+        log(_closing(summary, 0))
     return summary
 
 
@@ -234,7 +264,7 @@ def _sizes(tasks: list) -> tuple[int, int]:
     return max(g for g, _ in sizes), max(f for _, f in sizes)
 
 
-def _finish(study: Study, store: TaskStore, attrs: dict, tasks: list) -> dict:
+def _finish(study: Study, store: TaskStore, attrs: dict, tasks: list, combiner: Combiner | None = None) -> dict:
     from ..analysis.ensemble import ensemble_statistics
     from ..analysis.figures import contact_area_vs_load
 
@@ -248,8 +278,8 @@ def _finish(study: Study, store: TaskStore, attrs: dict, tasks: list) -> dict:
         print(f"roughcontact: warning: the file of {task.name} was damaged ({why}): moved aside to "
               f"{path.name}{DAMAGED}; the next run solves it again", file=sys.stderr)
 
-    groups = combine(study, {t.index: store.path(t) for t in tasks}, damaged)
-    root = groups["/"]
+    combined = combine(study, {t.index: store.path(t) for t in tasks}, damaged, combiner)
+    root = combined.groups["/"]
     failed = {t.index: str(root["message"].values[t.position]) for t in tasks
               if int(root["status"].values[t.position]) == FAILED}
     attrs["tasks_failed"] = len(failed)
@@ -260,7 +290,7 @@ def _finish(study: Study, store: TaskStore, attrs: dict, tasks: list) -> dict:
     kept = ("fields_note", "operator", "method", "solver", "solver_choice")
     root.attrs = {**attrs, **{k: v for k, v in root.attrs.items() if k.startswith(kept)}}
     try:
-        written = write_combined(groups, store.combined)
+        written = combined.write(store.combined)
     except OSError as exc:
         raise store.error("write the combined dataset", store.combined, exc) from None
     store.clear_failure()

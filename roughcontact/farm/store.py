@@ -54,12 +54,16 @@ HOST = socket.gethostname().replace(".", "_")
 
 
 class Written(NamedTuple):
-    """What a leader reports of a task file it wrote: no bytes travel to rank 0."""
+    """What a leader reports of a task file it wrote: no field travels to rank 0, only the
+    file's small variables (:func:`~.netcdf.held_groups`: what :func:`~.netcdf.read_groups` would
+    read of it without fields), which rank 0 keeps for the combined dataset instead of reading
+    every file again at the end."""
 
     index: int
     failed: bool
     size: int
     crc32: int
+    content: dict
 
 
 class Resume(NamedTuple):
@@ -194,11 +198,13 @@ class TaskStore:
 
     def write_task(self, task, groups: dict) -> Written:
         """Write the file of ``task`` from its datasets (on the group leader that solved it)."""
+        from .netcdf import held_groups
         from .records import encode
 
         payload = encode(groups)
         self.write_bytes(self.path(task), payload, f"the file of {task.name}")
-        return Written(task.index, int(groups["/"]["status"]) != 0, len(payload), zlib.crc32(payload))
+        return Written(task.index, int(groups["/"]["status"]) != 0, len(payload), zlib.crc32(payload),
+                       held_groups(groups))
 
     def write_bytes(self, path: Path, payload: bytes, what: str) -> None:
         """Write ``payload`` to ``path`` through ``path.part``, fsync and a rename.

@@ -16,9 +16,8 @@ from dataclasses import fields as dataclass_fields
 from pathlib import Path
 from typing import Any
 
-
 from ..checks import check_choice
-from ..errors import RoughContactError
+from ..errors import RoughContactError, TaskTimeout
 from ..materials import Interface
 from ..normal.choice import METHODS as _NORMAL_METHODS
 from ..operators.memory import KINDS
@@ -212,7 +211,7 @@ class TaskOutcome:
     ranks: int = 1
 
 
-def solve_task(task: Task, comm) -> TaskOutcome:
+def solve_task(task: Task, comm, timeout: float | None = None) -> TaskOutcome:
     """Solve ``task`` on the ranks of ``comm``: each load warm-started from the last (§3.1).
 
     With ``task.tangential``, every load also gets the incipient-sliding energy
@@ -221,6 +220,10 @@ def solve_task(task: Task, comm) -> TaskOutcome:
     inside the task, a solver that does not converge) ends the task: the
     outcome keeps what was solved before it and the message. Warnings are
     recorded with the outcome, not printed.
+
+    ``timeout`` (s) ends the task with a :class:`~roughcontact.errors.TaskTimeout`
+    at the first load boundary past it (:func:`_check_deadline`): the solve of a
+    load is never cut short, so every number kept is a converged one.
     """
     from ..tangential import fretting_cycle, fretting_map, incipient_sliding_energy, tangential_loads, tangential_sweep
 
@@ -235,6 +238,8 @@ def solve_task(task: Task, comm) -> TaskOutcome:
             with open_normal_solver(topography, task.interface, comm, task.normal) as solver:
                 problem = solver.problem
                 for i, control in enumerate(task.loads):
+                    if i:
+                        _check_deadline(comm, t0, timeout, i, len(task.loads))
                     normal = task.normal.solve(solver, task.load_dim, float(control) * scale)
                     outcome.normal.append(normal)
                     load = normal.load if task.load_dim == "closure" else float(control) * scale
@@ -262,6 +267,27 @@ def solve_task(task: Task, comm) -> TaskOutcome:
     outcome.warnings = tuple(dict.fromkeys(f"{w.category.__name__}: {w.message}" for w in caught))
     outcome.elapsed = time.perf_counter() - t0
     return outcome
+
+
+def _check_deadline(comm, start: float, timeout: float | None, done: int, loads: int) -> None:
+    """Raise :class:`~roughcontact.errors.TaskTimeout` if ``timeout`` seconds have passed since
+    ``start`` on any rank of ``comm`` (collective: every rank of a group stops at the same load).
+
+    Checked between loads, not by a timer signal: a signal interrupts each rank
+    of a group at a different point of a distributed solve, so the rank that
+    leaves it would leave the others waiting in the solve's next reduction (a
+    hang), and PETSc objects interrupted mid-solve are left in an error state.
+    A load's solve is bounded by its own iteration limits.
+    """
+    if timeout is None:
+        return
+    from mpi4py import MPI
+
+    elapsed = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
+    if elapsed > timeout:
+        raise TaskTimeout(f"[farm] task_timeout of {timeout:g} s passed after {done} of {loads} load(s) "
+                          f"({elapsed:.1f} s); the loads solved are kept. Raise it and run again with "
+                          f"--retry-failed to solve the task whole")
 
 
 def _short(value) -> str:

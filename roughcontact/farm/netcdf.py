@@ -85,14 +85,14 @@ def _write_group(group: h5py.Group, ds: xr.Dataset, ids, encoding: dict, deferre
             scale.make_scale(_PLACEHOLDER % size)
         scale.attrs["_Netcdf4Dimid"] = np.int32(dim_ids[dim])
         scales[dim] = scale
-    auxiliary = {n: set(ds[n].dims) for n in ds.coords if n not in ds.dims}
+    auxiliary = _auxiliary(ds)
 
     def attach(dataset, name, dims, is_coord):
         for axis, dim in enumerate(dims):
             dataset.dims[axis].attach_scale(scales[dim])
         if dims:
             dataset.attrs["_Netcdf4Coordinates"] = np.array([dim_ids[d] for d in dims], dtype=np.int32)
-        listed = [c for c, used in auxiliary.items() if c != name and used <= set(dims)]
+        listed = _listed(auxiliary, name, dims)
         if listed and not is_coord:
             dataset.attrs["coordinates"] = " ".join(listed)
 
@@ -105,6 +105,16 @@ def _write_group(group: h5py.Group, ds: xr.Dataset, ids, encoding: dict, deferre
         for key, value in netcdf_attrs(var.attrs).items():
             dataset.attrs[key] = value
         attach(dataset, name, var.dims, False)
+
+
+def _auxiliary(ds: xr.Dataset) -> dict[str, set]:
+    """The auxiliary coordinates of ``ds`` (not dimensions) and the dimensions each spans."""
+    return {n: set(ds[n].dims) for n in ds.coords if n not in ds.dims}
+
+
+def _listed(auxiliary: dict[str, set], name: str, dims) -> list[str]:
+    """The auxiliary coordinates a variable ``name`` on ``dims`` lists in its CF ``coordinates``."""
+    return [c for c, used in auxiliary.items() if c != name and used <= set(dims)]
 
 
 def _dataset(group: h5py.Group, name: str, var: xr.Variable, options: dict) -> h5py.Dataset:
@@ -186,9 +196,9 @@ def held_groups(groups: dict[str, xr.Dataset]) -> dict[str, tuple[dict[str, Stor
     and auxiliary coordinates are those some other variable lists (CF ``coordinates``)."""
     out = {}
     for name, ds in groups.items():
-        auxiliary = {n: set(ds[n].dims) for n in ds.coords if n not in ds.dims}
+        auxiliary = _auxiliary(ds)
         listed = {c for key, var in ds.variables.items() if key not in ds.coords
-                  for c, used in auxiliary.items() if c != key and used <= set(var.dims)}
+                  for c in _listed(auxiliary, key, var.dims)}
         variables = {}
         order = [d for d in ds.sizes if d in ds.variables and ds[d].dims == (d,)]
         order += [k for k in ds.variables if k not in ds.dims]

@@ -225,3 +225,42 @@ def test_free_rotation_at_a_few_contact_nodes(comm, levels, dimension, seed):
     assert_same_state(reference, result)
     np.testing.assert_allclose(result.rotation, reference.rotation, rtol=1e-6)
     problem.destroy()
+
+
+@pytest.mark.parametrize("control", sorted(CONTROLS))
+def test_mixed_precision_reaches_the_double_state(comm, control):
+    """Single-precision direction products and preconditioner (the default) reach the state of
+    all-double CG to the force tolerance, with the reported residual below tol: the residual
+    is confirmed on a double-precision H p, so the precision cannot loosen it."""
+    problem = NormalProblem(rough(64, seed=4), FLAT, comm, operator="fft")
+    double = solve(problem, "cg", CONTROLS[control], settings=CGSettings(precision="double"))
+    mixed = solve(problem, "cg", CONTROLS[control])
+    assert_same_state(double, mixed)
+    assert mixed.residual <= CGSettings().tol
+    problem.destroy()
+
+
+def test_mixed_precision_keeps_the_iteration_count_at_tight_tolerance(comm):
+    """Free rotation at 65² (the coarse level of a 513² start), whose inner solves run to
+    1e-11: the exact H p that confirms convergence differs from the updated one by the single
+    products' round-off (~1e-10 here), and the conjugate directions restart there. Without
+    the restart the mixed CG took 1084 iterations against 310 in double (at 129² it hit
+    the iteration limit); with it 334. Allowed: 1.25 times the double count."""
+    from roughcontact.surfaces import coarsen, midpoint_surface
+
+    rock = Interface(Material(20e9, 0.0), Material(20e9, 0.0))
+    fine = midpoint_surface(9, 2.3, spacing=1e-4, rms_height=1e-5, seed=7)
+    topo = coarsen(fine, 8, "decimate")
+    problem = NormalProblem(topo, rock, comm, operator="fft")
+    h = fine.heights
+    load = solve(problem, "ksp", lambda s: s.solve_closure(float(h.max() - np.quantile(h, 0.85)))).load
+    double = solve(problem, "cg", lambda s: s.solve_load(load), settings=CGSettings(precision="double"))
+    mixed = solve(problem, "cg", lambda s: s.solve_load(load))
+    assert_same_state(double, mixed)
+    assert mixed.linear_iterations <= 1.25 * double.linear_iterations
+    problem.destroy()
+
+
+def test_bad_precision_is_named():
+    with pytest.raises(InputError, match="precision"):
+        CGSettings(precision="half")

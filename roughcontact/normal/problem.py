@@ -88,10 +88,11 @@ class NormalProblem(Collective):
         """Which operator: ``"dense"``, ``"fft"``, ``"fft-periodic"`` or ``"user (<Mat type>)"``."""
         return self.flexibility.kind
 
-    def displacement(self, forces: np.ndarray) -> np.ndarray:
-        """u = H p on this rank's nodes for nodal forces p on this rank's nodes (Eq. 9)."""
+    def displacement(self, forces: np.ndarray, single: bool = False) -> np.ndarray:
+        """u = H p on this rank's nodes for nodal forces p on this rank's nodes (Eq. 9);
+        ``single``: the FFT product in single precision (:meth:`.Flexibility.product`)."""
         self._check_alive()
-        return self.flexibility.product(forces)
+        return self.flexibility.product(forces, single)
 
     @property
     def extent(self) -> float:

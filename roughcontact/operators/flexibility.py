@@ -117,8 +117,10 @@ class Flexibility:
         return self
 
     # -------------------------------------------------------------- products
-    def product(self, values: np.ndarray) -> np.ndarray:
-        """H x on this rank's nodes, for x given on this rank's nodes (whole footprint)."""
+    def product(self, values: np.ndarray, single: bool = False) -> np.ndarray:
+        """H x on this rank's nodes, for x given on this rank's nodes (whole footprint);
+        ``single``: the FFT in single precision (relative error ~1e-7, :mod:`.convolution`;
+        a user's Mat ignores it), the result still float64."""
         if self.convolution is None:
             x, y = self.mat.createVecs()
             x.getArray()[:] = values
@@ -128,12 +130,12 @@ class Flexibility:
             y.destroy()
             return out
         slab = self.layout.to_slab(values, out=self._slab)
-        return self.layout.from_slab(self.convolution.apply(slab))
+        return self.layout.from_slab(self.convolution.apply(slab, single)).astype(float, copy=False)
 
-    def precondition_nodes(self, values: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+    def precondition_nodes(self, values: np.ndarray, nodes: np.ndarray, single: bool = False) -> np.ndarray:
         """z = [C⁻¹ (values on S, 0 elsewhere)]_S: the Fourier preconditioner of H_SS, S given by
-        this rank's node indices, ``values`` and result on S only."""
-        return self.preconditioner.apply_nodes(values, nodes)
+        this rank's node indices, ``values`` and result on S only; ``single`` as :meth:`product`."""
+        return self.preconditioner.apply_nodes(values, nodes, single)
 
     @property
     def preconditioner(self):

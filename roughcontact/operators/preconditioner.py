@@ -55,16 +55,17 @@ class FourierPreconditioner:
             raise ConvergenceError("PC_SYMBOL_NOT_POSITIVE",
                                    f"the wrapped kernel's symbol reaches {smallest:.3e} <= 0; the Fourier "
                                    "preconditioner is not positive definite on this grid: use -normal_pc_type none")
-        self.inverse_symbol = 1.0 / self.convolution.symbol
+        self.convolution.set_symbol(1.0 / self.convolution.symbol)     # C⁻¹: a product applies it
         self._slab = np.zeros((self.layout.rows[1] - self.layout.rows[0], shape[1]))
 
-    def apply_nodes(self, values: np.ndarray, nodes: np.ndarray) -> np.ndarray:
-        """R_S C⁻¹ R_Sᵀ on S given by this rank's node indices; ``values`` and the result on S."""
+    def apply_nodes(self, values: np.ndarray, nodes: np.ndarray, single: bool = False) -> np.ndarray:
+        """R_S C⁻¹ R_Sᵀ on S given by this rank's node indices; ``values`` and the result on S;
+        ``single``: in single precision (:mod:`.convolution`), the result still float64."""
         self._slab.fill(0.0)
         positions = self.layout.positions[nodes]
         self._slab.reshape(-1)[positions] = values
-        smoothed = self.convolution.backward(self.convolution.forward(self._slab) * self.inverse_symbol)
-        return smoothed.reshape(-1)[positions]
+        smoothed = self.convolution.apply(self._slab, single)
+        return smoothed.reshape(-1)[positions].astype(float, copy=False)
 
 
 def _min():

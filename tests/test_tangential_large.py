@@ -58,3 +58,23 @@ def test_tangential_sweep_on_a_512_grid(comm):
     r2 = 1.0 - residual @ residual / np.sum((slip - slip.mean()) ** 2)
     assert r2 > 0.998
     problem.destroy()
+
+
+def test_extrapolated_starts_give_the_fresh_solves(comm):
+    """Each corrective solve of a sweep starts from the line through the last two (Eq. 23's
+    p*(P*) is piecewise smooth); the states equal those of a fresh solver at each Q, started
+    from the actual contact, to the CG's force tolerance (1e-6 of the largest force)."""
+    from roughcontact.tangential import CattaneoSolver
+
+    problem = NormalProblem(surface(96), EXACT, comm, operator="fft")
+    with make_solver(problem, "cg") as solver:
+        normal = solver.solve_load(0.01)
+    sweep = tangential_sweep(problem, normal, FRICTION, steps=6, method="cg", include_limit=False)
+    scale = FRICTION * normal.force.max()
+    for state in sweep.states[2:]:
+        with CattaneoSolver(problem, normal, FRICTION, method="cg") as fresh:
+            alone = fresh.solve(state.tangential)
+        differ = alone.stick != state.stick
+        assert np.all(np.abs(alone.traction[differ] - FRICTION * normal.force[differ]) <= 1e-6 * scale)
+        np.testing.assert_allclose(state.traction, alone.traction, rtol=0, atol=1e-6 * scale)
+    problem.destroy()

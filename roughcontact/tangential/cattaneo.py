@@ -115,6 +115,7 @@ class CattaneoSolver(Collective):
         # warm start of the first corrective solve: the actual contact set and motion (Eq. 23
         # receding: the stick set is a subset of it)
         self.solver.warm_start(normal)
+        self._history: list[tuple[float, np.ndarray, float]] = []   # (P*, p* on this rank, δz*)
 
     @property
     def limit_load(self) -> float:
@@ -145,8 +146,10 @@ class CattaneoSolver(Collective):
             traction = np.zeros_like(normal.force)
             stick = normal.contact.copy()
         else:
+            corrective_load = normal.load - q_load / f
+            self._extrapolate(corrective_load)
             try:
-                corrective = self.solver.solve_load(normal.load - q_load / f, rotation=normal.rotation)
+                corrective = self.solver.solve_load(corrective_load, rotation=normal.rotation)
             except ConvergenceError as err:
                 # A load-controlled normal solve meets its load only to its load tolerance (the
                 # solved P differs from the imposed one by ~1e-13 relative in practice), so Q = fP
@@ -158,6 +161,7 @@ class CattaneoSolver(Collective):
                 if q_load >= self.limit_load * (1.0 - load_tol):
                     raise full_sliding("tangential", q_load, self.limit_load, within=load_tol) from err
                 raise
+            self._remember(corrective_load)
             # Eq. 21; the stick set lies inside the contact set (receding problem), and a node of
             # p* outside it would show as negative traction in coulomb_violation
             stick = corrective.contact.copy()
@@ -193,6 +197,27 @@ class CattaneoSolver(Collective):
                            0.0, first_touch, limit=True, t0=t0)
 
     # ------------------------------------------------------------ internals
+    def _remember(self, corrective_load: float) -> None:
+        """Keep the last two corrective solutions (this rank's p*, δz*) for :meth:`_extrapolate`."""
+        self._history = self._history[-1:] + [(corrective_load, self.solver.forces.copy(),
+                                               float(self.solver.rigid[0]))]
+
+    def _extrapolate(self, corrective_load: float) -> None:
+        """Start the solve at P* from the line through the last two corrective solutions.
+
+        p*(P*) is piecewise smooth in P* (the stick set recedes node by node, Eq. 23): the linear
+        extrapolation, cut at p* ≥ 0, starts a decreasing sweep where the last solution alone
+        leaves the receding edges of every stick cluster to the iteration."""
+        if len(self._history) < 2 or self.solver.forces is None:
+            return
+        (load0, forces0, closure0), (load1, forces1, closure1) = self._history
+        if not load1 < load0 or not corrective_load < load1:
+            return
+        ratio = (corrective_load - load1) / (load1 - load0)
+        self.solver.forces = np.maximum(forces1 + ratio * (forces1 - forces0), 0.0)
+        self.solver.active = self.solver.forces > 0.0
+        self.solver.rigid[0] = closure1 + ratio * (closure1 - closure0)
+
     def _state(self, q_load, corrective, traction, stick, slip, slip_distance, approach,
                corrective_load, corrective_closure, limit, t0) -> TangentialState:
         f, normal, pb = self.friction, self.normal, self.problem

@@ -106,6 +106,11 @@ class CGSettings:
         its scale, enters the gap only through the increments α H d and H c,
         which shrink with the residual; the residual a solve reports is
         always measured on a double H p, so the precision cannot loosen it.
+        Where that fails the rest of the solve is taken in double: when the
+        residual has not reached a new lowest value for ``renew``
+        iterations (near full contact, where the single products stall the
+        residual at ~1e-7), or when the exact confirmation of convergence
+        disagrees with the updated gap (tolerances near 1e-11).
         ``"double"``: every product in double precision.
     """
 
@@ -209,6 +214,7 @@ class ConstrainedCGSolver(NormalSolver):
         free_mask = np.zeros(forces.size, dtype=bool)  # the same set as a mask (set changes by XOR)
         history: list[float] = []
         since_refresh = 0
+        best, since_best = np.inf, 0                   # the lowest residual, iterations since it
         since_restart, changed_since = 0, False
         for iteration in range(1, settings.max_iterations + 1):
             in_contact = forces > 0.0
@@ -220,16 +226,20 @@ class ConstrainedCGSolver(NormalSolver):
             residual = float(pb.allmax(max(np.abs(gap[contact]).max(initial=0.0),
                                             -gap.min(initial=0.0)))) / w_scale
             history.append(residual)
-            if residual <= tol:
-                if since_refresh == 0:
+            best, since_best = (residual, 0) if residual < best else (best, since_best + 1)
+            # single-precision products stalled (no new lowest residual in `renew` iterations: near
+            # full contact at 512² the residual rose from 1e-7 to 8e-7, 949 iterations against 54)
+            stalled = single and since_best >= settings.renew
+            if residual <= tol or stalled:
+                if since_refresh == 0 and not stalled:
                     rigid[free] = approach
                     return self._state(forces, gap, iteration, residual, history), rigid
                 # confirm on an exact H p (the updated one carries the steps' round-off); if that
                 # gap is not converged, the conjugate directions were built on the updated one:
-                # restart them (kept, single-precision products left 1.2e-10 and the CG took 1084
-                # iterations against 310 at 65², tol 1e-11; test_normal_cg)
+                # restart them, and take every product in double from here (the single ones left
+                # 1.2e-10 at 65² and tol 1e-11, and 1084 iterations against 310 when they went on)
                 displacement = pb.displacement(forces)
-                since_refresh, previous = 0, None
+                since_refresh, previous, single, since_best = 0, None, False, 0
                 continue
             # masks, not sorted-set operations: union1d's sort cost more than the FFT products at 512²
             last, last_mask = working, free_mask
@@ -243,7 +253,7 @@ class ConstrainedCGSolver(NormalSolver):
             if previous is None:
                 since_restart, changed_since = 0, False
             g = gap[working]
-            z = self._precondition(g, working)
+            z = self._precondition(g, working, single)
             if load is not None:
                 z -= _mean(pb, z)                      # keep Σ p = P along the direction
             gz = float(pb.allsum(g @ z))
@@ -278,7 +288,8 @@ class ConstrainedCGSolver(NormalSolver):
                 since_refresh = 0
             else:
                 # H (p − α d + c) = H p − α H d + H c: after a cut, one more product, of the small
-                # correction c, whose single-precision error shrinks with it like the step's
+                # correction c, whose single-precision error shrinks with it like the step's (the
+                # sum of c's kernel columns, when c had at most 4 nodes, saved nothing measurable)
                 displacement -= step * product
                 if cut:
                     clipped[working] = restored
@@ -329,10 +340,10 @@ class ConstrainedCGSolver(NormalSolver):
             rigid[0] = self.winkler_approach(rigid, loads[0])
         return np.maximum(pb.interpenetration(rigid), 0.0) / pb.flexibility.diagonal, rigid
 
-    def _precondition(self, g: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+    def _precondition(self, g: np.ndarray, nodes: np.ndarray, single: bool) -> np.ndarray:
         if self.settings.preconditioner == "none":
             return g.copy()
-        return self.problem.flexibility.precondition_nodes(g, nodes, self.settings.precision == "mixed")
+        return self.problem.flexibility.precondition_nodes(g, nodes, single)
 
     def _state(self, forces, gap, iterations, residual, history) -> ContactState:
         contact = forces > 0.0

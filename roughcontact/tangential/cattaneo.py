@@ -115,7 +115,8 @@ class CattaneoSolver(Collective):
         # warm start of the first corrective solve: the actual contact set and motion (Eq. 23
         # receding: the stick set is a subset of it)
         self.solver.warm_start(normal)
-        self._history: list[tuple[float, np.ndarray, float]] = []   # (P*, p* on this rank, δz*)
+        # (P*, p* on this rank, δz*) of the last corrective solutions; at Q = 0 p* is p itself
+        self._history = [(normal.load, self.solver.forces.copy(), float(normal.closure))]
 
     @property
     def limit_load(self) -> float:

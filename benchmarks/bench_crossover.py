@@ -9,7 +9,8 @@ default of ``solve_load``) and fixed. For each grid (17² to 257²), operator
 of ``--repeats``, on one rank. The dense operator stops at 129² (257² would
 need 35 GB).
 
-    python -m benchmarks.bench_crossover [--levels 4 5 6 7 8] [--output results/bench_crossover.json]
+    python -m benchmarks.bench_crossover [--levels 4 5 6 7 8] [--methods ksp cg]
+        [--output results/bench_crossover.json]
 """
 from __future__ import annotations
 
@@ -26,6 +27,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--levels", type=int, nargs="+", default=[4, 5, 6, 7, 8])
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--methods", nargs="+", choices=["ksp", "cg"], default=["ksp", "cg"])
     parser.add_argument("--output", default="results/bench_crossover.json")
     args = parser.parse_args()
 
@@ -47,7 +49,7 @@ def main() -> None:
         for operator in ("dense", "fft"):
             if operator == "dense" and n > 129:
                 continue
-            for method in ("ksp", "cg"):
+            for method in args.methods:
                 for rotation in ("free", "fixed"):
                     times, fraction = [], None
                     for _ in range(args.repeats):

@@ -9,17 +9,21 @@ benchmarks/bench_normal_large.py; see docs/solvers.md):
 - **operator**: ``"fft-periodic"`` for a surface declared periodic whose
   footprint is the whole grid (one period of a periodic interface); the
   explicit ``"dense"`` matrix up to :data:`DENSE_NODES` footprint nodes
-  (65²), where it was 20–25 % faster than the FFT operator with the CG
-  (a 12-load task on 65²: 0.75 s against 0.94 s with the rotation free,
-  0.16 s against 0.20 s fixed) and costs at most 143 MB; ``"fft"`` above
-  (at 129² the dense operator was 1.5 to 6 times slower and it does not fit
-  in memory beyond ~192²).
+  (33², where the active set is taken and its explicit blocks make it
+  27–29 % faster than on the FFT operator: a 12-load task on 33², 0.061 s
+  against 0.084 s with the rotation free, 0.039 against 0.055 s fixed);
+  ``"fft"`` above: with the CG's mixed-precision products the FFT operator
+  is as fast as the dense one at 33² and faster at 65² (0.424 against
+  0.455 s free, 0.077 against 0.099 s fixed; before them the dense one was
+  20–25 % faster there) and 1.9 to 4.4 times faster at 129², and the dense
+  matrix does not fit in memory beyond ~192².
 - **method**: the active set (``"ksp"``) up to :data:`ACTIVE_SET_NODES`
   footprint nodes (33²), where with the rotation free, as an ensemble's
-  tasks are, it was twice as fast as the CG (0.073 s against 0.153 s per
-  12-load task at 33²); the bound-constrained ``"cg"`` above (4 to 6 times
-  faster than the active set from 129² with the rotation fixed, 1.5 to 2
-  with it free), and always on ``"fft-periodic"``. ``"gauss-seidel"`` (the
+  tasks are, it was 2.7 times as fast as the CG (0.061 s against 0.164 s
+  per 12-load task at 33² on the dense matrix); the bound-constrained
+  ``"cg"`` above (faster than the active set from 65²: 0.445 against
+  0.51 s free, 0.081 against 0.34 s fixed), and always on
+  ``"fft-periodic"``. ``"gauss-seidel"`` (the
   paper's) is a reference only. The stability map
   (benchmarks/bench_stability.py) found no case, 64² to 1024², where the CG
   or the active set fails.
@@ -35,7 +39,7 @@ METHODS = ("ksp", "gauss-seidel", "cg")
 ACTIVE_SET_METHODS = ("ksp", "gauss-seidel")
 
 #: Footprint nodes up to which ``operator="auto"`` takes the explicit matrix.
-DENSE_NODES = 65 * 65
+DENSE_NODES = 33 * 33
 #: Footprint nodes up to which ``method="auto"`` takes the active set.
 ACTIVE_SET_NODES = 33 * 33
 

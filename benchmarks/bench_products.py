@@ -1,0 +1,174 @@
+#!/usr/bin/env python3
+"""What a normal solve and a tangential sweep cost in FFT products, in double and mixed precision.
+
+The targets of the constrained CG are stated in FFT-pair equivalents: the
+wall time of one solve (set-up and the coarse-to-fine start included)
+divided by the time of one forward and inverse real 2-D FFT of the padded
+grid (``scipy.fft.rfft2`` + ``irfft2`` of (Lx, Ly) in double, the same
+threads, median of 15, measured once per grid just before its solves), so
+the ratio depends less on how busy the machine is. For each grid and each
+precision of the CG (``CGSettings.precision``) the rows give that ratio,
+the fine and coarse iterations, the fine grid's FFT products taken in double
+and in single precision, and the residual measured on a double product.
+
+Scenes: ``scene`` is the large-grid scene (Hurst 0.8, unit rms slope, mean
+pressure 0.01 E*, rotation fixed; benchmarks/bench_normal_large.py);
+``full`` the same with fractal dimension 2.5 at 1 E*, near full contact.
+The sweep row is the 10-step tangential sweep to fP of
+benchmarks/bench_tangential.py's surface (midpoint, Δ = 2.3, ν = 0,
+about 8 % contact) at 513², normal and corrective solves by the CG.
+
+    python -m benchmarks.bench_products [--sizes 256 512 1024 2048] [--scenes scene full]
+        [--precisions double mixed] [--sweep 513] [--ranks 1] [--output results/bench_products.json]
+
+Times are medians of ``--repeats`` runs (one at 2048² and above).
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from benchmarks.common import add_launch_arguments, emit, run_on_ranks, save_json, scene_surface, write_rows
+
+PRESSURES = {"scene": 0.01, "full": 1.0}            # mean pressure / E*
+
+
+class Counter:
+    """Counts the FFT products of a convolution by precision (wraps its ``apply``)."""
+
+    def __init__(self, convolution):
+        self.counts = {"double": 0, "single": 0}
+        apply = convolution.apply
+
+        def counted(field, single=False):
+            self.counts["single" if single else "double"] += 1
+            return apply(field, single)
+
+        convolution.apply = counted
+
+
+def fft_pair_seconds(lengths: tuple[int, int], workers: int, repeats: int = 15) -> float:
+    """Median time of rfft2 + irfft2 of a random (Lx, Ly) field in double."""
+    import scipy.fft as sfft
+
+    field = np.random.default_rng(0).standard_normal(lengths)
+    times = []
+    for _ in range(repeats + 1):
+        t0 = time.perf_counter()
+        sfft.irfft2(sfft.rfft2(field, workers=workers), s=lengths, workers=workers)
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times[1:]))
+
+
+def scene_topography(name: str, n: int):
+    from roughcontact.surfaces import Topography
+
+    shape = {"fractal_dimension": 2.5} if name == "full" else {}
+    return Topography(np.asarray(scene_surface(n, 1, **shape).heights), 1.0 / n)
+
+
+def worker(args) -> None:
+    import petsc4py
+
+    petsc4py.init([])
+    from mpi4py import MPI
+
+    from roughcontact.materials import Interface, Material
+    from roughcontact.normal import NormalProblem, make_solver
+    from roughcontact.normal.constrained_cg import CGSettings
+    from roughcontact.operators.convolution import SlabConvolution
+
+    comm = MPI.COMM_WORLD
+    flat = Interface(Material(1.0, 0.0))                      # E* = 1 against a rigid flat
+    rows: list[dict] = []
+    for scene in args.scenes:
+        for n in args.sizes:
+            topo = scene_topography(scene, n)
+            load = PRESSURES[scene] * topo.nominal_area
+            grid = SlabConvolution((n, n), comm)           # the operator's padded lengths and threads
+            pair = fft_pair_seconds(grid.lengths, grid.workers)
+            for precision in args.precisions:
+                times, result, counts = [], None, None
+                for _ in range(1 if n >= 2048 else args.repeats):
+                    comm.Barrier()
+                    t0 = time.perf_counter()
+                    problem = NormalProblem(topo, flat, comm, operator="fft")
+                    counter = Counter(problem.flexibility.convolution)
+                    with make_solver(problem, "cg", settings=CGSettings(precision=precision)) as solver:
+                        result = solver.solve_load(load, rotation=(0.0, 0.0))
+                    comm.Barrier()
+                    times.append(time.perf_counter() - t0)
+                    counts = counter.counts
+                    problem.destroy()
+                seconds = float(np.median(times))
+                emit(comm, rows, {
+                    "kind": "normal", "scene": scene, "n": n, "ranks": comm.Get_size(), "precision": precision,
+                    "seconds": seconds, "fft_pair_seconds": pair, "fft_pairs": seconds / pair,
+                    "fine_iterations": result.linear_iterations, "coarse_iterations": result.coarse_iterations,
+                    "fine_products": counts, "contact_fraction": result.contact_fraction,
+                    "residual": result.residual})
+    if args.sweep:
+        rows.extend(sweep_rows(comm, args))
+    write_rows(comm, rows, args.json)
+
+
+def sweep_rows(comm, args) -> list[dict]:
+    """The 10-step sweep to fP at ``args.sweep``² for each precision."""
+    from roughcontact.materials import Interface, Material
+    from roughcontact.normal import NormalProblem, make_solver
+    from roughcontact.normal.constrained_cg import CGSettings
+    from roughcontact.surfaces import Topography, midpoint_surface
+    from roughcontact.tangential import tangential_sweep
+
+    n = args.sweep
+    interface = Interface(Material(20e9, 0.0), Material(20e9, 0.0))
+    levels = int(np.ceil(np.log2(n - 1)))
+    full = midpoint_surface(levels, 2.3, spacing=1e-4, rms_height=1e-5, seed=7)
+    topo = Topography(full.heights[:n, :n], full.spacing)
+    problem = NormalProblem(topo, interface, comm, operator="fft")
+    heights = topo.heights.ravel()
+    with make_solver(problem, "cg") as solver:
+        load = solver.solve_closure(float(heights.max() - np.quantile(heights, 0.85))).load
+    rows = []
+    for precision in args.precisions:
+        settings = CGSettings(precision=precision)
+        with make_solver(problem, "cg", settings=settings) as solver:
+            normal = solver.solve_load(load)
+        times, sweep = [], None
+        for _ in range(args.repeats):
+            comm.Barrier()
+            t0 = time.perf_counter()
+            sweep = tangential_sweep(problem, normal, 0.6, steps=10, method="cg", settings=settings)
+            comm.Barrier()
+            times.append(time.perf_counter() - t0)
+        correctives = [s.corrective for s in sweep.states if s.corrective is not None and s.tangential > 0]
+        emit(comm, rows, {
+            "kind": "sweep", "n": n, "ranks": comm.Get_size(), "precision": precision, "steps": 10,
+            "seconds": float(np.median(times)), "seconds_all": times,
+            "corrective_iterations": [c.linear_iterations for c in correctives],
+            "contact_fraction": normal.contact_fraction})
+    problem.destroy()
+    return rows
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    add_launch_arguments(parser, repeats=3, output="results/bench_products.json")
+    parser.set_defaults(ranks=[1])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[256, 512, 1024, 2048])
+    parser.add_argument("--scenes", nargs="+", choices=sorted(PRESSURES), default=["scene", "full"])
+    parser.add_argument("--precisions", nargs="+", choices=["double", "mixed"], default=["double", "mixed"])
+    parser.add_argument("--sweep", type=int, default=513, help="grid of the sweep row (0: none)")
+    args = parser.parse_args()
+    if args.worker:
+        return worker(args)
+    rows = run_on_ranks(__spec__.name, args.ranks, [
+        "--repeats", str(args.repeats), "--sizes", *map(str, args.sizes), "--scenes", *args.scenes,
+        "--precisions", *args.precisions, "--sweep", str(args.sweep)])
+    save_json(rows, args.output)
+
+
+if __name__ == "__main__":
+    main()

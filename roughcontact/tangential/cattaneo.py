@@ -71,8 +71,10 @@ class CattaneoSolver(Collective):
     """Tangential states of one normal contact under Q along ``direction`` (Eqs. 20–27).
 
     Keeps one corrective normal solver (:func:`~roughcontact.normal.make_solver`),
-    so a sweep of increasing Q (decreasing P*) warm-starts each corrective
-    solve from the last stick set; the first starts from the actual contact set.
+    so a sweep of increasing Q (decreasing P*) starts each corrective solve
+    from the line through the last two corrective solutions in P* (the first
+    of them the actual one, p* = p at Q = 0), cut at p* ≥ 0; the first
+    starts from the actual contact set.
 
     Parameters
     ----------

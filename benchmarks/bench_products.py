@@ -15,8 +15,8 @@ Scenes: ``scene`` is the large-grid scene (Hurst 0.8, unit rms slope, mean
 pressure 0.01 E*, rotation fixed; benchmarks/bench_normal_large.py);
 ``full`` the same with fractal dimension 2.5 at 1 E*, near full contact.
 The sweep row is the 10-step tangential sweep to fP of
-benchmarks/bench_tangential.py's surface (midpoint, Δ = 2.3, ν = 0,
-about 8 % contact) at 513², normal and corrective solves by the CG.
+benchmarks/bench_tangential.py's scene (``benchmarks.common.sweep_scene``:
+midpoint, Δ = 2.3, ν = 0, about 1.4 % of the nodes in contact) at 513², normal and corrective solves by the CG.
 
     python -m benchmarks.bench_products [--sizes 256 512 1024 2048] [--scenes scene full]
         [--precisions double mixed] [--sweep 513] [--ranks 1] [--output results/bench_products.json]
@@ -30,7 +30,15 @@ import time
 
 import numpy as np
 
-from benchmarks.common import add_launch_arguments, emit, run_on_ranks, save_json, scene_surface, write_rows
+from benchmarks.common import (
+    add_launch_arguments,
+    emit,
+    run_on_ranks,
+    save_json,
+    scene_surface,
+    sweep_scene,
+    write_rows,
+)
 
 PRESSURES = {"scene": 0.01, "full": 1.0}            # mean pressure / E*
 
@@ -116,21 +124,15 @@ def worker(args) -> None:
 
 def sweep_rows(comm, args) -> list[dict]:
     """The 10-step sweep to fP at ``args.sweep``² for each precision."""
-    from roughcontact.materials import Interface, Material
     from roughcontact.normal import NormalProblem, make_solver
     from roughcontact.normal.constrained_cg import CGSettings
-    from roughcontact.surfaces import Topography, midpoint_surface
     from roughcontact.tangential import tangential_sweep
 
     n = args.sweep
-    interface = Interface(Material(20e9, 0.0), Material(20e9, 0.0))
-    levels = int(np.ceil(np.log2(n - 1)))
-    full = midpoint_surface(levels, 2.3, spacing=1e-4, rms_height=1e-5, seed=7)
-    topo = Topography(full.heights[:n, :n], full.spacing)
+    topo, interface, closure = sweep_scene(n)
     problem = NormalProblem(topo, interface, comm, operator="fft")
-    heights = topo.heights.ravel()
     with make_solver(problem, "cg") as solver:
-        load = solver.solve_closure(float(heights.max() - np.quantile(heights, 0.85))).load
+        load = solver.solve_closure(closure).load
     rows = []
     for precision in args.precisions:
         settings = CGSettings(precision=precision)

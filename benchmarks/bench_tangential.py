@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import add_launch_arguments, emit, run_on_ranks, write_rows
+from benchmarks.common import add_launch_arguments, emit, run_on_ranks, sweep_scene, write_rows
 
 
 def worker(args) -> None:
@@ -32,23 +32,17 @@ def worker(args) -> None:
     petsc4py.init([])
     from mpi4py import MPI
 
-    from roughcontact.materials import Interface, Material
     from roughcontact.normal import ActiveSetSolver, NormalProblem
-    from roughcontact.surfaces import Topography, midpoint_surface
     from roughcontact.tangential import tangential_sweep
 
     comm = MPI.COMM_WORLD
-    interface = Interface(Material(20e9, 0.0), Material(20e9, 0.0))
     friction = 0.6
     rows = []
     for n in args.sizes:
-        levels = int(np.ceil(np.log2(n - 1))) if n > 2 else 1
-        full = midpoint_surface(levels, 2.3, spacing=1e-4, rms_height=1e-5, seed=7)
-        topo = Topography(full.heights[:n, :n], full.spacing)
+        topo, interface, closure = sweep_scene(n)
         problem = NormalProblem(topo, interface, comm)
-        h = topo.heights.ravel()
         with ActiveSetSolver(problem) as solver:
-            load = solver.solve_closure(float(h.max() - np.quantile(h, 0.85))).load
+            load = solver.solve_closure(closure).load
 
         def timed(fn):
             comm.Barrier()

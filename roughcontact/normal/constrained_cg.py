@@ -208,7 +208,7 @@ class ConstrainedCGSolver(NormalSolver):
             forces *= _load_scale(pb, forces, load)
         displacement = pb.displacement(forces)
         direction = np.zeros_like(forces)              # zero outside the free set
-        clipped = np.zeros_like(forces)                # c of a cut on the free set, zero elsewhere
+        clipped = np.zeros_like(forces)                # c of the last cut at its nodes, zero elsewhere
         previous = None                                # gᵀz of the last iteration, None: restart
         working = np.zeros(0, dtype=np.intp)           # the free set of the last iteration
         free_mask = np.zeros(forces.size, dtype=bool)  # the same set as a mask (set changes by XOR)
@@ -231,14 +231,15 @@ class ConstrainedCGSolver(NormalSolver):
             # full contact at 512² the residual rose from 1e-7 to 8e-7, 949 iterations against 54)
             stalled = single and since_best >= settings.renew
             if residual <= tol or stalled:
-                if since_refresh == 0 and not stalled:
+                if since_refresh == 0 and residual <= tol:
                     rigid[free] = approach
                     return self._state(forces, gap, iteration, residual, history), rigid
                 # confirm on an exact H p (the updated one carries the steps' round-off); if that
                 # gap is not converged, the conjugate directions were built on the updated one:
                 # restart them, and take every product in double from here (the single ones left
                 # 1.2e-10 at 65² and tol 1e-11, and 1084 iterations against 310 when they went on)
-                displacement = pb.displacement(forces)
+                if since_refresh:
+                    displacement = pb.displacement(forces)
                 since_refresh, previous, single, since_best = 0, None, False, 0
                 continue
             # masks, not sorted-set operations: union1d's sort cost more than the FFT products at 512²
@@ -277,7 +278,8 @@ class ConstrainedCGSolver(NormalSolver):
             leaving = trial < 0.0
             cut = bool(pb.allmax(float(leaving.any())) > 0.0)
             if cut:                                    # the forces the cut adds back, c = −trial ≥ 0
-                restored = np.where(leaving, -trial, 0.0)
+                cut_nodes = working[leaving]
+                clipped[cut_nodes] = -trial[leaving]
                 trial[leaving] = 0.0
             forces[working] = trial
             scale = _load_scale(pb, forces[working], load) if load is not None else 1.0
@@ -292,10 +294,10 @@ class ConstrainedCGSolver(NormalSolver):
                 # sum of c's kernel columns, when c had at most 4 nodes, saved nothing measurable)
                 displacement -= step * product
                 if cut:
-                    clipped[working] = restored
                     displacement += pb.displacement(clipped, single)
-                    clipped[working] = 0.0
                 displacement *= scale                  # H is linear: a uniform rescaling is exact
+            if cut:
+                clipped[cut_nodes] = 0.0
         raise ConvergenceError(
             "CG_MAX_ITERATIONS",
             f"{settings.max_iterations} bound-constrained CG iterations without meeting tol={tol:g} "

@@ -53,9 +53,17 @@ class NormalSolver(Collective):
         self._check_alive()
         pb = self.problem
         footprint = pb.topography.footprint
-        self.active = result.contact[footprint][pb.start:pb.stop].copy()
-        self.forces = result.force[footprint][pb.start:pb.stop].copy()
-        self.rigid = np.array([result.closure, *result.rotation], dtype=float)
+        self.start_from(result.force[footprint][pb.start:pb.stop], np.array([result.closure, *result.rotation]),
+                        result.contact[footprint][pb.start:pb.stop])
+
+    def start_from(self, forces: np.ndarray, rigid: np.ndarray, active: np.ndarray | None = None) -> None:
+        """Start the next solve from nodal forces on this rank's nodes (cut at 0), the rigid
+        motion (δz, θx, θy) and the contact set (by default where the forces are positive),
+        e.g. an extrapolation of earlier solutions."""
+        self._check_alive()
+        self.forces = np.maximum(np.asarray(forces, dtype=float), 0.0)
+        self.active = self.forces > 0.0 if active is None else np.array(active, dtype=bool)
+        self.rigid = np.array(rigid, dtype=float)
 
     def solve_closure(self, closure: float, rotation: tuple[float, float] = (0.0, 0.0)) -> NormalResult:
         """Displacement control: impose δz and (θx, θy) (Eq. 7)."""

@@ -211,15 +211,14 @@ class CattaneoSolver(Collective):
         p*(P*) is piecewise smooth in P* (the stick set recedes node by node, Eq. 23): the linear
         extrapolation, cut at p* ≥ 0, starts a decreasing sweep where the last solution alone
         leaves the receding edges of every stick cluster to the iteration."""
-        if len(self._history) < 2 or self.solver.forces is None:
+        if len(self._history) < 2:
             return
         (load0, forces0, closure0), (load1, forces1, closure1) = self._history
         if not load1 < load0 or not corrective_load < load1:
             return
         ratio = (corrective_load - load1) / (load1 - load0)
-        self.solver.forces = np.maximum(forces1 + ratio * (forces1 - forces0), 0.0)
-        self.solver.active = self.solver.forces > 0.0
-        self.solver.rigid[0] = closure1 + ratio * (closure1 - closure0)
+        rigid = np.array([closure1 + ratio * (closure1 - closure0), *self.normal.rotation])
+        self.solver.start_from(forces1 + ratio * (forces1 - forces0), rigid)
 
     def _state(self, q_load, corrective, traction, stick, slip, slip_distance, approach,
                corrective_load, corrective_closure, limit, t0) -> TangentialState:

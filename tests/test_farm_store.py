@@ -283,3 +283,33 @@ def test_the_combined_fields_are_each_task_files_fields_streamed_into_place(comm
         loaded = combine(definition, {t.index: store.path(t) for t in definition.tasks()}).load()["/"]
         loaded = loaded.drop_vars([v for v in loaded.data_vars if "elapsed" in v])
         xr.testing.assert_equal(loaded.drop_attrs(), combined.drop_attrs())
+
+
+def test_a_lease_whose_pid_was_reused_is_stale_and_a_live_jobs_is_not(tmp_path):
+    """A lease names (host, pid, start time) of its job's rank 0. A dead job's pid taken by a live
+    process (here this process, under another start time) must not keep the lease: with the pid
+    alone a resumed run waited on it for ever. The lease of a live job (this process as it is), and
+    one of the earlier (host, pid) form whose pid is alive, are left alone."""
+    import os
+    import socket
+    from types import SimpleNamespace
+
+    from roughcontact.farm.leases import Leases, start_time
+
+    started = start_time(os.getpid())
+    if started == "-":
+        pytest.skip("/proc gives no start times here")
+    task = SimpleNamespace(key="abc")
+    leases = Leases(lambda t: tmp_path / f"task-{t.key}.nc")
+    lease = tmp_path / "task-abc.lease"
+    host = socket.gethostname()
+    try:
+        lease.write_text(f"{host} {os.getpid()} {int(started) + 1}")       # the pid, reused since
+        assert leases.claim(task) is True
+        assert lease.read_text() == leases.owner
+        leases.release(task)
+        for owner in (f"{host} {os.getpid()} {started}", f"{host} {os.getpid()}"):
+            lease.write_text(owner)
+            assert leases.claim(task) is None
+    finally:
+        leases.close()

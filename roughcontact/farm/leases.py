@@ -6,10 +6,13 @@ rank 0 hands a task to a group it creates ``<name>.tasks/task-<key>.lease``
 with ``O_CREAT | O_EXCL`` (atomic on a local file system and on NFSv3+ and
 Lustre): one job gets it; the other leaves the task, and comes back to it
 after its other tasks, when the task's file has appeared (solved there) or
-the lease has gone stale (its job died). A lease names its job (host, pid of
-rank 0); it is stale when that process is gone (same host) or it has not
-been refreshed for :data:`STALE_SECONDS` (any host: rank 0 touches its leases
-every :data:`HEARTBEAT_SECONDS`). It is removed once its task file is written.
+the lease has gone stale (its job died). A lease names its job (host, pid and
+start time of rank 0); it is stale when that process is gone (same host: no
+process with that pid, or one started at another time — pids are reused,
+32768 of them on many systems, and a dead job's pid taken by a live process
+once kept its leases alive for ever) or it has not been refreshed for
+:data:`STALE_SECONDS` (any host: rank 0 touches its leases every
+:data:`HEARTBEAT_SECONDS`). It is removed once its task file is written.
 
 ``--shard i/n`` splits a study into n parts by task key, so a part keeps its
 tasks when the study grows; a job takes only its part
@@ -38,7 +41,7 @@ class Leases:
         self.path_of = path_of                   # task -> its task file
         self.retrying = set(retrying)            # keys whose (failed) file is to be replaced
         self.stale = stale
-        self.owner = f"{socket.gethostname()} {os.getpid()}"
+        self.owner = " ".join(map(str, (socket.gethostname(), os.getpid(), start_time(os.getpid()))))
         self.held: dict[str, Path] = {}
         self._lock = threading.Lock()
         self._stop = threading.Event()
@@ -114,19 +117,34 @@ class Leases:
             age = time.time() - lease.stat().st_mtime
         except (OSError, ValueError):
             return False                          # being written or just removed: ask again
-        if len(owner) == 2 and owner[0] == socket.gethostname():
-            return not _alive(int(owner[1]))
+        if len(owner) in (2, 3) and owner[0] == socket.gethostname():
+            return not _alive(int(owner[1]), owner[2] if len(owner) == 3 else None)
         return age > self.stale
 
 
-def _alive(pid: int) -> bool:
+def start_time(pid: int) -> str:
+    """When process ``pid`` started (clock ticks since boot, /proc/<pid>/stat field 22), or "-"
+    where /proc does not say (then only the pid identifies the process)."""
+    try:
+        with open(f"/proc/{pid}/stat") as stat:
+            fields = stat.read().rsplit(")", 1)[1].split()
+        return fields[19]
+    except (OSError, IndexError):
+        return "-"
+
+
+def _alive(pid: int, started: str | None = None) -> bool:
+    """Whether process ``pid`` exists and, when ``started`` is known, is the one started then."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
     except PermissionError:
+        pass
+    if started is None or started == "-":
         return True
-    return True
+    now = start_time(pid)
+    return now == "-" or now == started
 
 
 def parse_shard(text: str | None) -> tuple[int, int] | None:

@@ -202,9 +202,9 @@ def test_periodic_operator_is_the_image_sum_of_eq10(comm):
     assert abs(u_per.mean()) <= 1e-12 * np.abs(u_per).max()
     # the image sum is symmetric: explicit blocks read the table modulo the period
     nodes = np.array([[0, 0], [0, n - 1], [n - 1, 3]])
-    block = kernel_block(offset_table(periodic.kernel, periodic=True), (n, n), nodes, nodes, periodic=True)
+    block = kernel_block(offset_table(periodic.table, periodic=True), (n, n), nodes, nodes, periodic=True)
     np.testing.assert_allclose(block, block.T, rtol=1e-15)
-    assert block[0, 1] == periodic.kernel[0, 1]          # offset −1 ≡ 1 (mod n)
+    assert block[0, 1] == periodic.table[0, 1]          # offset −1 ≡ 1 (mod n)
     periodic.destroy()
     plain.destroy()
 

@@ -54,7 +54,7 @@ def bulk_compliance(problem: NormalProblem) -> BulkCompliance:
     finally:
         forces.destroy()
         displacement.destroy()
-    nearest = int(np.argmin(np.sum((problem.nodes * problem.topography.spacing - problem.centroid) ** 2, axis=1)))
+    nearest = problem.nearest_node((0.0, 0.0))
     return BulkCompliance(float(values.mean()), float(values[nearest]), problem.to_field(values, fill=np.nan))
 
 

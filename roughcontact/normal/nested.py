@@ -55,7 +55,7 @@ class NestedStart:
     def applies(problem: NormalProblem) -> bool:
         """Whether the grid is fine enough for a coarse level to pay off, and its operator one that
         can be rebuilt on a coarser grid (not a user's Mat)."""
-        return problem.size > 4 * COARSEST and problem.flexibility.kernel is not None
+        return problem.size > 4 * COARSEST and problem.flexibility.convolution is not None
 
     def start(self, rigid: np.ndarray, free: list[int], loads: np.ndarray):
         """(forces, rigid motion) on this rank's fine nodes, or None when the coarse level cannot
@@ -110,7 +110,7 @@ def prolong(coarse: NormalResult, fine: NormalProblem) -> np.ndarray:
     halfway between them, and multiplied by the fine cell area s².
     """
     pressure = np.where(coarse.contact, coarse.pressure, 0.0)
-    nodes = fine.nodes[fine.start:fine.stop]
+    nodes = fine.nodes
     i, j = nodes[:, 0], nodes[:, 1]
     cx, cy = pressure.shape
     i0, j0 = np.minimum(i // 2, cx - 1), np.minimum(j // 2, cy - 1)

@@ -62,21 +62,26 @@ class NormalProblem(Collective):
             self.operator_reason = "given"
             self._owns_operator = False
         layout = self.flexibility.layout
-        self.nodes = layout.nodes()
         self.size = layout.size
         self.start, self.stop = layout.start, layout.stop
+        self.counts = np.array(comm.allgather(layout.local_size))     # nodes of each rank
+        # only this rank's nodes are held: no array of all N nodes on every rank
+        self.nodes = layout.local_nodes()                             # (i, j) of this rank's nodes
         s = topography.spacing
-        xy = self.nodes * s
-        self.centroid = xy.mean(axis=0)
-        local = slice(self.start, self.stop)
-        self.x = xy[local, 0] - self.centroid[0]
-        self.y = xy[local, 1] - self.centroid[1]
-        heights = topography.heights[topography.footprint]
-        self.gap0 = heights.max() - heights[local]
+        # the centroid from integer sums: exact, so the same bits on any number of ranks
+        index_sums = np.array(comm.allreduce(self.nodes.sum(axis=0, dtype=np.int64)), dtype=float)
+        self.centroid = index_sums * s / self.size
+        self.x = self.nodes[:, 0] * s - self.centroid[0]
+        self.y = self.nodes[:, 1] * s - self.centroid[1]
+        r0, r1 = layout.rows
+        heights = topography.heights[r0:r1][layout.local_mask]
+        top, negative_bottom = self.allmax(np.array([heights.max(initial=-np.inf),
+                                                     -heights.min(initial=np.inf)]))
+        self.gap0 = top - heights
         # the scale of heights, used to make gap tolerances relative
-        self.height_range = float(np.ptp(heights)) if heights.size > 1 else 0.0
-        self.columns = np.stack([np.ones_like(self.x), -self.y, -self.x], axis=1)
-        self._all_xy = xy - self.centroid
+        self.height_range = float(top + negative_bottom) if self.size > 1 else 0.0
+        self._extent = float(self.allmax(max(np.abs(self.x).max(initial=0.0), np.abs(self.y).max(initial=0.0))))
+        self._hull = None
 
     @property
     def operator(self):
@@ -97,7 +102,12 @@ class NormalProblem(Collective):
     @property
     def extent(self) -> float:
         """Largest |x| or |y| of a footprint node from the centroid (m); s for a single node."""
-        return float(np.abs(self._all_xy).max()) or self.topography.spacing
+        return self._extent or self.topography.spacing
+
+    @property
+    def columns(self) -> np.ndarray:
+        """C = [1, −y, −x] on this rank's nodes (Eq. 8), built when asked (N × 3 values)."""
+        return np.stack([np.ones_like(self.x), -self.y, -self.x], axis=1)
 
     @property
     def local_size(self) -> int:
@@ -105,7 +115,8 @@ class NormalProblem(Collective):
 
     def interpenetration(self, rigid: np.ndarray) -> np.ndarray:
         """w = C r − gap0 on the local nodes, for r = (δz, θx, θy) (Eq. 7)."""
-        return self.columns @ np.asarray(rigid, dtype=float) - self.gap0
+        approach, theta_x, theta_y = np.asarray(rigid, dtype=float)
+        return approach - theta_x * self.y - theta_y * self.x - self.gap0
 
     def allsum(self, local) -> np.ndarray:
         """Sum over ranks of a local partial sum (same bits on every rank)."""
@@ -129,11 +140,31 @@ class NormalProblem(Collective):
         return recv.reshape(np.shape(local))
 
     def gather(self, local: np.ndarray) -> np.ndarray:
-        """All footprint values of a distributed vector, on every rank."""
-        return np.concatenate(self.comm.allgather(np.asarray(local)))
+        """All footprint values of a distributed vector (this rank's nodes), on every rank: received
+        in place into one array (no pickled copies)."""
+        local = np.ascontiguousarray(local)
+        if local.shape != (self.local_size,):
+            raise ValueError(f"gather takes this rank's {self.local_size} values, got shape {local.shape}")
+        flag = local.dtype == bool
+        send = local.view(np.uint8) if flag else local
+        out = np.empty(self.size, dtype=send.dtype)
+        self.comm.Allgatherv(send, [out, self.counts])
+        return out.view(bool) if flag else out
 
-    def to_field(self, values: np.ndarray, fill: float = 0.0) -> np.ndarray:
-        """A (nx, ny) field from footprint values (global vector), ``fill`` elsewhere."""
+    def nearest_node(self, point) -> int:
+        """Global index of the footprint node nearest to ``point`` (centroid-relative x, y; the
+        lowest index among equally near ones)."""
+        distance = (self.x - point[0]) ** 2 + (self.y - point[1]) ** 2
+        local = int(np.argmin(distance)) if distance.size else -1
+        best = (float(distance[local]), self.start + local) if local >= 0 else (np.inf, self.size)
+        return int(min(self.comm.allgather(best))[1])
+
+    def to_field(self, values: np.ndarray, fill: float = 0.0, fresh: bool = False) -> np.ndarray:
+        """A (nx, ny) field from footprint values (global vector), ``fill`` elsewhere; ``fresh``:
+        ``values`` is an array the caller no longer uses, returned reshaped when the footprint is the
+        whole grid (no second copy of N values)."""
+        if fresh and self.flexibility.layout.whole_grid:
+            return np.asarray(values).reshape(self.topography.shape)
         field = np.full(self.topography.shape, fill, dtype=np.asarray(values).dtype)
         field[self.topography.footprint] = values
         return field
@@ -142,8 +173,15 @@ class NormalProblem(Collective):
         """Whether ``point`` (centroid-relative x, y) lies in the footprint's convex hull."""
         from scipy.spatial import ConvexHull, QhullError
 
+        if self._hull is None:
+            # the hull of the footprint is the hull of each grid row's first and last node
+            rows = self.nodes[:, 0]
+            ends = np.flatnonzero(np.diff(rows, prepend=-1, append=-1) != 0)
+            mine = np.stack([self.x, self.y], axis=1)[np.unique(np.concatenate([ends[:-1], ends[1:] - 1]))] \
+                if rows.size else np.zeros((0, 2))
+            self._hull = np.concatenate(self.comm.allgather(mine))
         try:
-            hull = ConvexHull(self._all_xy)
+            hull = ConvexHull(self._hull)
         except (QhullError, ValueError):
             # fewer than 3 nodes or collinear nodes: allow the exact centroid only
             return bool(np.allclose(point, 0.0, atol=1e-12 * self.topography.spacing))

@@ -152,20 +152,20 @@ class NormalSolver(Collective):
         self.active = active.copy()
         self.forces = pressure.copy()
         self.rigid = rigid.copy()
-        forces = pb.gather(pressure)
-        contact = pb.gather(active)
-        gaps = pb.gather(np.where(active, 0.0, gap))
+        # each field straight from its gathered vector: N values per field on every rank, no more
+        s = pb.topography.spacing
+        force = pb.to_field(pb.gather(pressure), fresh=True)
+        contact = pb.to_field(pb.gather(active), False, fresh=True)
+        gaps = pb.to_field(pb.gather(np.where(active, 0.0, gap)), np.nan, fresh=True)
         moments = pb.allsum(np.array([pressure.sum(), pressure @ pb.y, pressure @ pb.x]))
         load = float(moments[0])
-        s = pb.topography.spacing
         if load > 0.0:
             centroid = (pb.centroid[0] + moments[2] / load, pb.centroid[1] + moments[1] / load)
         else:
             centroid = (float("nan"), float("nan"))
-        n_contact = int(contact.sum())
+        n_contact = int(np.count_nonzero(contact))
         return NormalResult(
-            force=pb.to_field(forces), pressure=pb.to_field(forces / s**2),
-            contact=pb.to_field(contact, False), gap=pb.to_field(gaps, np.nan),
+            force=force, pressure=force / s**2, contact=contact, gap=gaps,
             load=load, moments=(float(moments[1]), float(moments[2])),
             centroid=(float(centroid[0]), float(centroid[1])),
             reference_point=(float(pb.centroid[0]), float(pb.centroid[1])),

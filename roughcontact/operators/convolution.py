@@ -136,7 +136,8 @@ class SlabConvolution:
 
     # ---------------------------------------------------------------- symbol
     def set_kernel(self, kernel: np.ndarray) -> None:
-        """The symbol of the even kernel k(Δi, Δj) = kernel[|Δi|, |Δj|] (an (nx, ny) table).
+        """The symbol of the even kernel k(Δi, Δj) = kernel[|Δi|, |Δj|]: the whole (nx, ny) table,
+        or only this rank's rows of it, (row_stop − row_start, ny) — all a rank transforms.
 
         Non-periodic: the table extended to negative offsets on the padded
         grid, zero at offsets beyond ±(n − 1), transformed. Periodic: the
@@ -147,13 +148,16 @@ class SlabConvolution:
         nx, ny = self.shape
         lx, ly = self.lengths
         kernel = np.asarray(kernel, dtype=float)
-        if kernel.shape != self.shape:
-            raise ValueError(f"kernel table has shape {kernel.shape}, the grid {self.shape}")
         r0, r1 = self.rows
+        if kernel.shape == self.shape:
+            kernel = kernel[r0:r1]
+        elif kernel.shape != (r1 - r0, ny):
+            raise ValueError(f"kernel table has shape {kernel.shape}: neither the grid {self.shape} "
+                             f"nor this rank's rows {(r1 - r0, ny)}")
         rows = np.zeros((r1 - r0, ly))
-        rows[:, :ny] = kernel[r0:r1]
+        rows[:, :ny] = kernel
         if not self.periodic:
-            rows[:, ly - ny + 1:] = kernel[r0:r1, :0:-1]            # negative y offsets
+            rows[:, ly - ny + 1:] = kernel[:, :0:-1]                # negative y offsets
         spectra = sfft.rfft(rows, axis=1, workers=self.workers)
         columns = self._to_columns(spectra)                         # (nx, my columns)
         full = np.zeros((lx, columns.shape[1]), dtype=complex)

@@ -73,21 +73,23 @@ class Flexibility:
         self.spacing = topography.spacing
         self.compliance = interface.compliance
         self.convolution = SlabConvolution(self.shape, comm, periodic=self.periodic, workers=workers)
+        self._table = None
+        self._offsets = None
+        r0, r1 = self.layout.rows
         if self.periodic:
-            from .periodic import periodic_kernel
-
-            self.kernel = periodic_kernel(self.shape, self.spacing, self.compliance)
+            self.convolution.set_kernel(self.table[r0:r1])
+            self.diagonal = float(self.table[0, 0])
         else:
-            self.kernel = punch_kernel(self.shape, self.spacing, self.compliance)
-        self.convolution.set_kernel(self.kernel)
-        self.diagonal = float(self.kernel[0, 0])
+            # only this rank's rows of the Eq. 10 table: no array of N entries on every rank
+            self.convolution.set_kernel(punch_kernel(self.shape, self.spacing, self.compliance,
+                                                     rows=np.arange(r0, r1)))
+            self.diagonal = float(punch_kernel((1, 1), self.spacing, self.compliance)[0, 0])
         self._preconditioner = None
-        self._slab = np.zeros((self.layout.rows[1] - self.layout.rows[0], self.shape[1]))
-        self._nodes = None
+        self._slab = np.zeros((r1 - r0, self.shape[1]))
         if kind == "dense":
             from .dense import assemble_flexibility
 
-            self.mat = assemble_flexibility(self.kernel, self.layout, comm)
+            self.mat = assemble_flexibility(self.table, self.layout, comm)
         else:
             from .fft import full_operator
 
@@ -103,7 +105,7 @@ class Flexibility:
         self.layout = NodeLayout.build(topography.footprint, comm)
         self.shape = topography.footprint.shape
         self.spacing = topography.spacing
-        self.convolution = self.kernel = self._preconditioner = self._nodes = None
+        self.convolution = self._table = self._offsets = self._preconditioner = None
         self._slab = None
         self.mat = mat
         rows = tuple(mat.getOwnershipRange())
@@ -115,6 +117,20 @@ class Flexibility:
         self.diagonal = float(diagonal.max()[1])
         diagonal.destroy()
         return self
+
+    @property
+    def table(self) -> np.ndarray | None:
+        """The whole Eq. 10 table K[|Δi|, |Δj|] (the periodic operator: its kernel on one period),
+        built on first use — by the dense matrix and explicit blocks only, as it holds N entries on
+        every rank; None for a user's Mat."""
+        if self._table is None and self.convolution is not None:
+            if self.periodic:
+                from .periodic import periodic_kernel
+
+                self._table = periodic_kernel(self.shape, self.spacing, self.compliance)
+            else:
+                self._table = punch_kernel(self.shape, self.spacing, self.compliance)
+        return self._table
 
     # -------------------------------------------------------------- products
     def product(self, values: np.ndarray, single: bool = False) -> np.ndarray:
@@ -162,7 +178,7 @@ class Flexibility:
         ``explicit`` forces an explicit (True) or matrix-free (False) block;
         by default the cheaper one (:meth:`explicit_fits`).
         """
-        if self.kind == "dense" or self.kernel is None:
+        if self.kind == "dense" or self.convolution is None:
             rows = (np.flatnonzero(active) + self.layout.start).astype(PETSc.IntType)
             index_set = PETSc.IS().createGeneral(rows, comm=self.comm)
             sub = self.mat.createSubMatrix(index_set, index_set)
@@ -179,10 +195,9 @@ class Flexibility:
 
     def _explicit_block(self, active: np.ndarray, count: int) -> PETSc.Mat:
         """H_SS gathered from the kernel table, row-distributed MATDENSE (C-ordered columns)."""
-        if self._nodes is None:
-            self._nodes = self.layout.nodes()
-            self._offsets = offset_table(self.kernel, self.periodic)
-        local_nodes = self._nodes[self.layout.start:self.layout.stop][active]
+        if self._offsets is None:
+            self._offsets = offset_table(self.table, self.periodic)
+        local_nodes = self.layout.local_nodes()[active]
         all_nodes = np.concatenate(self.comm.allgather(local_nodes))
         # H_SS is symmetric: row j of this C-ordered array is column j of the local rows
         columns = kernel_block(self._offsets, self.shape, all_nodes, local_nodes, periodic=self.periodic)

@@ -22,10 +22,12 @@ from __future__ import annotations
 import numpy as np
 
 
-def punch_kernel(shape: tuple[int, int], spacing: float, compliance: float) -> np.ndarray:
-    """Table K[|Δi|, |Δj|] of Eq. 10 for all offsets of a grid of ``shape``."""
+def punch_kernel(shape: tuple[int, int], spacing: float, compliance: float,
+                 rows: np.ndarray | None = None) -> np.ndarray:
+    """Table K[|Δi|, |Δj|] of Eq. 10 for all offsets of a grid of ``shape``; ``rows``: only the
+    rows |Δi| listed (a distributed operator computes the rows of its own slab, not the table)."""
     a = spacing / 2.0
-    di = np.arange(shape[0])[:, None] * spacing
+    di = (np.arange(shape[0]) if rows is None else np.asarray(rows))[:, None] * spacing
     dj = np.arange(shape[1])[None, :] * spacing
     r = np.hypot(di, dj)
     with np.errstate(divide="ignore"):

@@ -64,6 +64,11 @@ class NodeLayout:
         return bool(self.local_mask.all())
 
     @cached_property
+    def whole_grid(self) -> bool:
+        """Every node of the grid is in the footprint."""
+        return self.size == self.footprint.size
+
+    @cached_property
     def positions(self) -> np.ndarray:
         """Flat slab position of each owned node."""
         return np.flatnonzero(self.local_mask)
@@ -87,6 +92,9 @@ class NodeLayout:
             return slab.reshape(-1)
         return slab[self.local_mask]
 
-    def nodes(self) -> np.ndarray:
-        """(i, j) grid indices of all footprint nodes, in the order of the unknowns."""
-        return np.argwhere(self.footprint)
+    def local_nodes(self) -> np.ndarray:
+        """(i, j) grid indices of this rank's nodes, in the order of the unknowns (int32: a grid
+        has fewer than 2³¹ rows and columns)."""
+        nodes = np.argwhere(self.local_mask).astype(np.int32)
+        nodes[:, 0] += self.rows[0]
+        return nodes

@@ -6,24 +6,29 @@ ending in a numpy ``MemoryError`` or an out-of-memory kill.
 
 The estimate is the high-water resident set of a whole normal solve on the
 busiest rank (problem, operator, solver, result), above what the process
-held before, as measured by ``benchmarks/bench_normal_large.py``:
+held once the topography was made, as measured by
+``benchmarks/bench_memory.py`` (each size and rank count in processes of its
+own, the high-water mark reset after the surface):
 
-- every kind holds some arrays of all N nodes on every rank: the Eq. 10
-  table, node coordinates, the gathered result fields — about
-  :data:`REPLICATED` bytes per node;
+- what every rank holds whatever the number of ranks — the result's fields
+  (a :class:`~roughcontact.normal.result.NormalResult` is the same on every
+  rank: force, pressure, contact and gap, 25 B/node) and those of the coarse
+  levels of a nested start — about :data:`REPLICATED` bytes per node; the
+  operator itself keeps only its rank's rows of the Eq. 10 table, nodes and
+  coordinates;
 - the rest is split over the ranks: the FFT symbols of the operator and its
-  preconditioner, the padded transform buffers, the solver's vectors and the
-  coarse levels of a nested start — about :data:`DISTRIBUTED` bytes per node
-  in all;
+  preconditioner, the padded transform buffers in double and single
+  precision, the solver's vectors and the coarse levels — about
+  :data:`DISTRIBUTED` bytes per node in all;
 - ``"dense"`` adds the explicit N × N matrix, 8 N²/ranks bytes, and the
   C-ordered rows its assembly fills (the same memory, handed to PETSc).
 
-Measured (1024², the constrained CG with its nested start): 370 B/node on
-one rank, 240 B/node/rank on two; at 2048² on one rank, 304 B/node. The
-mixed-precision CG (the default) adds the float32 and complex64 twins of the
-padded buffers of the operator and its preconditioner: at 2048² on one rank
-396 against 362 B/node in double, at 1024² 402 against 390 (peak above the
-process after the surface was made).
+Measured with the constrained CG (mixed precision, nested start), peak bytes
+per node per rank on 1, 2, 4 ranks: 1024² 328, 187, 107; 2048² 325, 179,
+109; 4096² 311, 169, 90 — a fit N (R + D/ranks) gives R = 19–37, D =
+288–293. The constants bound every one of these from above. Explicit blocks of H_SS (small contact
+sets) also build the whole table over signed offsets, 32 B/node on every
+rank, while they are used.
 """
 from __future__ import annotations
 
@@ -35,9 +40,9 @@ from ..errors import InputError
 #: read before PETSc starts)
 KINDS = ("dense", "fft", "fft-periodic")
 #: bytes per node held on every rank
-REPLICATED = 110
+REPLICATED = 50
 #: bytes per node split over the ranks
-DISTRIBUTED = 310
+DISTRIBUTED = 285
 
 
 def operator_memory(kind: str, nodes: int, ranks: int = 1) -> int:

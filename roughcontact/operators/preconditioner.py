@@ -31,12 +31,16 @@ from .convolution import SlabConvolution
 from .kernel import punch_kernel
 
 
-def wrapped_kernel(kernel: np.ndarray) -> np.ndarray:
-    """The table of offsets (0 … n − 1) folded onto one period: k[min(i, n − i), min(j, n − j)]."""
-    nx, ny = kernel.shape
-    i = np.minimum(np.arange(nx), nx - np.arange(nx))
-    j = np.minimum(np.arange(ny), ny - np.arange(ny))
-    return kernel[i][:, j]
+def wrapped_kernel(shape: tuple[int, int], spacing: float, compliance: float,
+                   rows: tuple[int, int] | None = None) -> np.ndarray:
+    """The Eq. 10 table folded onto one period, k[min(i, n − i), min(j, n − j)], on the grid rows
+    ``rows`` = (start, stop) (default all): the rows one rank transforms."""
+    nx, ny = shape
+    start, stop = (0, nx) if rows is None else rows
+    i = np.arange(start, stop)
+    j = np.arange(ny)
+    table = punch_kernel(shape, spacing, compliance, rows=np.minimum(i, nx - i))
+    return table[:, np.minimum(j, ny - j)]
 
 
 class FourierPreconditioner:
@@ -47,9 +51,9 @@ class FourierPreconditioner:
         shape = flexibility.shape
         self.convolution = SlabConvolution(shape, flexibility.comm, periodic=True,
                                            workers=flexibility.convolution.workers)
-        kernel = punch_kernel(shape, flexibility.spacing, flexibility.compliance) if flexibility.periodic \
-            else flexibility.kernel
-        self.convolution.set_kernel(wrapped_kernel(kernel))
+        # the half-space kernel for the periodic operator too (its own has a zero mean mode)
+        self.convolution.set_kernel(wrapped_kernel(shape, flexibility.spacing, flexibility.compliance,
+                                                   rows=self.convolution.rows))
         smallest = flexibility.comm.allreduce(float(self.convolution.symbol.min()), op=_min())
         if not smallest > 0.0:
             raise ConvergenceError("PC_SYMBOL_NOT_POSITIVE",

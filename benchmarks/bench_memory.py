@@ -1,0 +1,119 @@
+#!/usr/bin/env python3
+"""Per-rank memory of one normal solve on 1, 2, 4 … ranks, against 1/ranks and the estimate.
+
+The large-grid scene (benchmarks.common.scene_surface: Hurst 0.8, unit rms
+slope, mean pressure 0.01 E*, rotation fixed), the FFT operator and the
+constrained CG with its defaults (mixed precision, coarse-to-fine start).
+Each size runs in processes of its own; each rank makes the surface (the input a user hands to the solver, N
+heights and the footprint on every rank), then the high-water mark is reset
+(``/proc/self/clear_refs``) and the resident set noted; a row gives, for the
+busiest rank, the peak above that point during problem set-up + solve, the
+resident set left after it (the result's fields included: a NormalResult
+holds N values per field on every rank), and
+:func:`roughcontact.operators.operator_memory`'s estimate. The report fits
+peak(k) = N (R + D/k) over the rank counts: R bytes per node held on every
+rank, D bytes per node divided among the ranks — the figures that size a
+larger run (docs/solvers.md). More ranks than cores is fine for memory.
+
+    python -m benchmarks.bench_memory [--sizes 1024 2048] [--ranks 1 2 4]
+        [--output results/bench_memory.json]
+"""
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from benchmarks.common import add_launch_arguments, emit, run_on_ranks, save_json, scene_surface, write_rows
+
+PRESSURE = 0.01          # mean pressure / E*
+
+
+def status(key: str) -> int:
+    """A /proc/self/status entry in bytes (VmRSS, VmHWM)."""
+    with open("/proc/self/status") as handle:
+        for line in handle:
+            if line.startswith(key):
+                return int(line.split()[1]) * 1024
+    return 0
+
+
+def reset_peak() -> bool:
+    """Reset VmHWM to the current resident set (Linux ≥ 4.0); False where the kernel refuses."""
+    try:
+        with open("/proc/self/clear_refs", "w") as handle:
+            handle.write("5")
+        return True
+    except OSError:
+        return False
+
+
+def worker(args) -> None:
+    import petsc4py
+
+    petsc4py.init([])
+    from mpi4py import MPI
+
+    from roughcontact.materials import Interface, Material
+    from roughcontact.normal import NormalProblem, make_solver
+    from roughcontact.operators import operator_memory
+    from roughcontact.surfaces import Topography
+
+    comm = MPI.COMM_WORLD
+    rows: list[dict] = []
+    for n in args.sizes:
+        topography = Topography(np.asarray(scene_surface(n, 1).heights), 1.0 / n)
+        reset = comm.allreduce(reset_peak(), op=MPI.LAND)
+        base = status("VmRSS")
+        problem = NormalProblem(topography, Interface(Material(1.0, 0.0)), comm, operator="fft")
+        with make_solver(problem, "cg") as solver:
+            result = solver.solve_load(PRESSURE * topography.nominal_area, rotation=(0.0, 0.0))
+        problem.destroy()
+        peak = comm.allreduce(status("VmHWM") - base, op=MPI.MAX)
+        held = comm.allreduce(status("VmRSS") - base, op=MPI.MAX)
+        nodes = n * n
+        emit(comm, rows, {
+            "n": n, "ranks": comm.Get_size(), "peak_bytes_per_rank": peak, "peak_per_node": peak / nodes,
+            "held_after_bytes_per_rank": held, "held_after_per_node": held / nodes,
+            "estimate_bytes_per_rank": operator_memory("fft", nodes, comm.Get_size()),
+            "peak_reset": bool(reset), "iterations": result.linear_iterations,
+            "residual": result.residual})
+    write_rows(comm, rows, args.json)
+
+
+def report(rows: list[dict]) -> dict:
+    """Per size: each rank count's peak against the one-rank peak / ranks, and the fit N (R + D/k)."""
+    out = {}
+    for n in sorted({r["n"] for r in rows}):
+        mine = sorted((r for r in rows if r["n"] == n), key=lambda r: r["ranks"])
+        one = next((r["peak_per_node"] for r in mine if r["ranks"] == 1), None)
+        entry = {"peak_per_node": {r["ranks"]: round(r["peak_per_node"], 1) for r in mine}}
+        if one is not None:
+            entry["over_one_rank_share"] = {r["ranks"]: round(r["peak_per_node"] * r["ranks"] / one - 1.0, 3)
+                                            for r in mine}
+        if len(mine) >= 2:
+            inverse = np.array([1.0 / r["ranks"] for r in mine])
+            slope, intercept = np.polyfit(inverse, [r["peak_per_node"] for r in mine], 1)
+            entry["replicated_per_node"] = round(float(intercept), 1)
+            entry["distributed_per_node"] = round(float(slope), 1)
+        out[str(n)] = entry
+        print(n, entry)
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    add_launch_arguments(parser, repeats=1, output="results/bench_memory.json")
+    parser.set_defaults(ranks=[1, 2, 4])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[1024, 2048])
+    args = parser.parse_args()
+    if args.worker:
+        return worker(args)
+    # one process per size and rank count: memory freed by an earlier solve stays in the process
+    # (the allocator keeps it), which would hide part of the next one's peak
+    rows = [row for n in args.sizes for row in run_on_ranks(__spec__.name, args.ranks, ["--sizes", str(n)])]
+    save_json({"rows": rows, "report": report(rows)}, args.output)
+
+
+if __name__ == "__main__":
+    main()

@@ -17,19 +17,24 @@ from roughcontact.surfaces import Topography
 ROCK = Interface(Material(30e9, 0.25))
 
 
-def disc_topography(n: int = 48, seed: int = 3) -> Topography:
-    """Random heights on a disc-shaped footprint: rows of unequal length, some ranks' rows short."""
+def disc_topography(n: int = 48, seed: int = 3, shape: str = "disc") -> Topography:
+    """Random heights on a disc-shaped footprint (rows of unequal length), or on the first 20 rows
+    of the grid (``"band"``: on two ranks or more, the second rank owns no node)."""
     rng = np.random.default_rng(seed)
     i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    footprint = (i - 0.45 * n) ** 2 + (j - 0.55 * n) ** 2 <= (0.4 * n) ** 2
+    if shape == "band":
+        footprint = (i < 20) & (j > 5)
+    else:
+        footprint = (i - 0.45 * n) ** 2 + (j - 0.55 * n) ** 2 <= (0.4 * n) ** 2
     heights = np.where(footprint, rng.standard_normal((n, n)) * 1e-6, np.nan)
     return Topography(heights, 1e-4, footprint=footprint)
 
 
-def test_derived_geometry_equals_the_whole_grid_computation(comm):
+@pytest.mark.parametrize("shape", ["disc", "band"])
+def test_derived_geometry_equals_the_whole_grid_computation(comm, shape):
     """Centroid, extent, height range and first-touch gap against numpy on all nodes (exact up to
-    round-off of sums: rtol 1e-14)."""
-    topo = disc_topography()
+    round-off of sums: rtol 1e-14), also where a rank owns no node."""
+    topo = disc_topography(shape=shape)
     problem = NormalProblem(topo, ROCK, comm, operator="fft")
     s = topo.spacing
     nodes = np.argwhere(topo.footprint)
@@ -45,10 +50,11 @@ def test_derived_geometry_equals_the_whole_grid_computation(comm):
     problem.destroy()
 
 
-def test_load_point_inside_is_the_hull_of_all_nodes(comm):
+@pytest.mark.parametrize("shape", ["disc", "band"])
+def test_load_point_inside_is_the_hull_of_all_nodes(comm, shape):
     """The hull built from each grid row's end nodes is the hull of every node: points on a ring
     around the centroid are inside exactly when scipy's hull of all nodes says so."""
-    topo = disc_topography()
+    topo = disc_topography(shape=shape)
     problem = NormalProblem(topo, ROCK, comm, operator="fft")
     xy = np.argwhere(topo.footprint) * topo.spacing - problem.centroid
     hull = ConvexHull(xy)

@@ -77,8 +77,10 @@ class Flexibility:
         self._offsets = None
         r0, r1 = self.layout.rows
         if self.periodic:
-            self.convolution.set_kernel(self.table[r0:r1])
-            self.diagonal = float(self.table[0, 0])
+            table = self.table                       # the Ewald sum makes the whole period at once
+            self.convolution.set_kernel(table[r0:r1])
+            self.diagonal = float(table[0, 0])
+            self._table = None                       # made again if explicit blocks need it
         else:
             # only this rank's rows of the Eq. 10 table: no array of N entries on every rank
             self.convolution.set_kernel(punch_kernel(self.shape, self.spacing, self.compliance,

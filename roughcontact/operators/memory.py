@@ -26,7 +26,8 @@ own, the high-water mark reset after the surface):
 Measured with the constrained CG (mixed precision, nested start), peak bytes
 per node per rank on 1, 2, 4 ranks: 1024² 328, 187, 107; 2048² 325, 179,
 109; 4096² 311, 169, 90 — a fit N (R + D/ranks) gives R = 19–37, D =
-288–293. The constants bound every one of these from above. Explicit blocks of H_SS (small contact
+288–293. The constants bound every one of these from above. ``"fft-periodic"`` makes its whole
+Ewald-summed table once at set-up (8 B/node, transient). Explicit blocks of H_SS (small contact
 sets) also build the whole table over signed offsets, 32 B/node on every
 rank, while they are used.
 """

@@ -84,6 +84,9 @@ class NestedStart:
                           "punches instead", RuntimeWarning, stacklevel=3)
             return None
         self.iterations = result.linear_iterations
+        # the coarse level waits idle while the fine grid solves: its padded buffers (~70 B per
+        # coarse node) are made again if a later cold start needs them
+        coarse.flexibility.release_buffers()
         motion = np.array([result.closure - result.rotation[0] * shift[1] - result.rotation[1] * shift[0]
                            - offset, *result.rotation])
         forces = prolong(result, fine)

@@ -213,6 +213,11 @@ class SlabConvolution:
         columns[nx:] = 0.0
         return sfft.fft(columns, axis=0, overwrite_x=True, workers=self.workers)
 
+    def release_buffers(self) -> None:
+        """Free the padded buffers of :meth:`forward` (made again on the next product): a coarse
+        level idle while the fine grid solves need not hold them."""
+        self._buffers.clear()
+
     def backward(self, spectrum: np.ndarray) -> np.ndarray:
         """Inverse of :meth:`forward`, cropped to the grid: this rank's rows, (rows, ny)."""
         nx, ny = self.shape

@@ -155,6 +155,13 @@ class Flexibility:
         this rank's node indices, ``values`` and result on S only; ``single`` as :meth:`product`."""
         return self.preconditioner.apply_nodes(values, nodes, single)
 
+    def release_buffers(self) -> None:
+        """Free the transform buffers of the operator and its preconditioner until their next use."""
+        if self.convolution is not None:
+            self.convolution.release_buffers()
+        if self._preconditioner is not None:
+            self._preconditioner.convolution.release_buffers()
+
     @property
     def preconditioner(self):
         """The Fourier preconditioner of contact-set blocks (:mod:`.preconditioner`), built on first use."""

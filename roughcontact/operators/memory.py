@@ -18,15 +18,16 @@ own, the high-water mark reset after the surface):
   coordinates;
 - the rest is split over the ranks: the FFT symbols of the operator and its
   preconditioner, the padded transform buffers in double and single
-  precision, the solver's vectors and the coarse levels — about
+  precision, the solver's vectors and the coarse levels (whose transform
+  buffers are freed once they have given the fine grid its start) — about
   :data:`DISTRIBUTED` bytes per node in all;
 - ``"dense"`` adds the explicit N × N matrix, 8 N²/ranks bytes, and the
   C-ordered rows its assembly fills (the same memory, handed to PETSc).
 
 Measured with the constrained CG (mixed precision, nested start), peak bytes
-per node per rank on 1, 2, 4 ranks: 1024² 328, 187, 107; 2048² 325, 179,
-109; 4096² 311, 169, 90 — a fit N (R + D/ranks) gives R = 19–37, D =
-288–293. The constants bound every one of these from above. ``"fft-periodic"`` makes its whole
+per node per rank on 1, 2, 4 ranks: 1024² 320, 182, 102; 2048² 297, 170,
+98; 4096² 285, 157, 84 — a fit N (R + D/ranks) gives R = 20–35, D =
+263–289. The constants bound every one of these from above. ``"fft-periodic"`` makes its whole
 Ewald-summed table once at set-up (8 B/node, transient). Explicit blocks of H_SS (small contact
 sets) also build the whole table over signed offsets, 32 B/node on every
 rank, while they are used.

@@ -4,7 +4,10 @@ random moment and then resumed by the same command.
 
 Fault kinds (``--runs`` of each, default 6: 30 runs):
 
-- ``kill-job``: SIGKILL of ``mpiexec`` and every rank at a random moment of the run;
+- ``kill-job``: SIGKILL of ``mpiexec`` and every rank at a random moment of the run (each rank
+  by its pid: MPICH's proxy starts ranks in sessions of their own, so a signal to mpiexec's
+  process group alone left them running, writing task files after the "kill" — no scheduler
+  does that, and the suite's resume test failed on it once);
 - ``kill-rank``: SIGKILL of rank 1 alone at a random moment;
 - ``raise``: an unexpected exception in a random rank's n-th task (a defect, not a solver failure);
 - ``enospc``: ENOSPC ("No space left on device") at a random task-file write of a random rank;
@@ -164,19 +167,19 @@ class Job:
         return [tuple(map(int, line.split())) for line in path.read_text().splitlines()] if path.exists() else []
 
     def kill_after(self, output: str, log: str, files: int, victim) -> None:
-        """Start a run and SIGKILL ``victim(process, solves)`` once ``files`` task files exist."""
+        """Start a run and SIGKILL ``victim(process, solves, output path)`` once ``files`` task
+        files exist; return once no process of the run is left."""
         process = self.start(output, log)
         deadline = time.monotonic() + 120
         while len(self.files(output)) < files:
             assert process.poll() is None, "the run ended before it could be killed"
             assert time.monotonic() < deadline
             time.sleep(0.01)
-        victim(process, self.solves(log))
+        victim(process, self.solves(log), self.root / output)
         try:
             process.wait(timeout=60)
         finally:
-            if alive_group(process.pid):
-                os.killpg(process.pid, signal.SIGKILL)
+            kill_run(self.root / output, process)
 
 
 def alive_group(pgid: int) -> bool:
@@ -185,6 +188,42 @@ def alive_group(pgid: int) -> bool:
         return True
     except ProcessLookupError:
         return False
+
+
+def run_processes(output: Path) -> list[int]:
+    """Pids of the live processes whose command line names ``output`` (mpiexec and each rank)."""
+    target = str(output).encode()
+    found = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit() or int(entry) == os.getpid():
+            continue
+        try:
+            arguments = Path(f"/proc/{entry}/cmdline").read_bytes().split(b"\0")
+            state = Path(f"/proc/{entry}/stat").read_text().rsplit(")", 1)[1].split()[0]
+        except (OSError, IndexError):
+            continue                                     # gone meanwhile
+        if target in arguments and state not in ("Z", "X"):
+            found.append(int(entry))
+    return found
+
+
+def kill_run(output: Path, process: subprocess.Popen | None = None, limit: float = 30.0) -> None:
+    """SIGKILL every process of the run on ``output`` — mpiexec's process group and each rank,
+    which runs in a session of its own — and wait until none is left."""
+    if process is not None and alive_group(process.pid):
+        os.killpg(process.pid, signal.SIGKILL)
+    deadline = time.monotonic() + limit
+    while pids := run_processes(output):
+        for pid in pids:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+        if time.monotonic() > deadline:
+            raise RuntimeError(f"processes {pids} of the run on {output} outlived SIGKILL for {limit:g} s")
+        time.sleep(0.01)
+    if process is not None:
+        process.wait()
 
 
 def scalars(path: Path):
@@ -222,14 +261,12 @@ def fault_run(job: Job, kind: str, run: int, rng: random.Random, duration: float
             if kind == "kill-rank" and (pids / "rank-1").exists():
                 os.kill(int((pids / "rank-1").read_text()), signal.SIGKILL)
             else:
-                os.killpg(process.pid, signal.SIGKILL)
+                kill_run(job.root / output, process)
         try:
             process.wait(timeout=hang)
         except subprocess.TimeoutExpired:
             row["hung"] = 1
-        if alive_group(process.pid):
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
+        kill_run(job.root / output, process)            # nothing of the run outlives it
     else:
         rank, nth = rng.randrange(2), rng.randrange(TASKS // 2)
         row["fault"] = f"rank {rank}, its task {nth}" if kind == "raise" else f"rank {rank}, its write {nth}"

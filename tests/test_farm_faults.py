@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from benchmarks.bench_faults import KINDS, TASKS, Job, campaign, scalars
+from benchmarks.bench_faults import KINDS, TASKS, Job, campaign, kill_run, scalars
 
 
 @pytest.fixture
@@ -44,11 +44,11 @@ def reference(tmp_path_factory):
     return scalars(job.root / "reference" / "faults.nc")
 
 
-def kill_job(process, solves):
-    os.killpg(process.pid, signal.SIGKILL)
+def kill_job(process, solves, output):
+    kill_run(output, process)
 
 
-def kill_rank_1(process, solves):
+def kill_rank_1(process, solves, output):
     pid = next(pid for _, pid, rank in solves if rank == 1)
     os.kill(pid, signal.SIGKILL)
 

@@ -84,7 +84,16 @@ class CGSettings:
         the tail of the iteration, where a few boundary nodes flip each time,
         into preconditioned steepest descent; never restarting loses
         conjugacy when S changes a lot. 0.05 took the fewest iterations on
-        self-affine surfaces from 256² to 1024² (benchmarks/bench_normal_large.py).
+        sparse contact (self-affine surfaces from 256² to 1024² at 0.01 E*,
+        benchmarks/bench_normal_large.py), but near full contact (Δ = 2.5 at
+        1 E*) it let 2–4 % of S flip in every iteration for a hundred
+        iterations without a restart: the residual stood at 1e-2 (a 512²
+        level of a 2048² start: 237 iterations, 60 with 0.02; the whole
+        2048² solve 101 → 63 s; seed 2 at 1024² 12.0 → 8.7 s). 0.02 is the
+        default: on sparse contact the same to ±2 iterations (2048²: 35
+        against 37); near full contact at 512² and 1024² on five surfaces,
+        fine + coarse iterations 0.97–1.12 of those with 0.05 except the
+        stalled one (0.51), wall time 0.95 of it in all.
     renew
         Also restart when the free set changed at all since the last restart
         and this many iterations have passed: small changes that each stay
@@ -118,7 +127,7 @@ class CGSettings:
     max_iterations: int = 5000
     preconditioner: str = "fourier"
     refresh: int = 50
-    restart: float = 0.05
+    restart: float = 0.02
     renew: int = 8
     load_tol: float = 1e-8
     max_newton: int = 50

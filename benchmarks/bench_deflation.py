@@ -27,9 +27,17 @@ import argparse
 
 import numpy as np
 
-from benchmarks.common import add_launch_arguments, emit, run_on_ranks, save_json, scene_surface, write_rows
+from benchmarks.common import (
+    add_launch_arguments,
+    emit,
+    run_on_ranks,
+    save_json,
+    scene_problem,
+    scene_topography,
+    solve_scene,
+    write_rows,
+)
 
-PRESSURE = 0.01          # mean pressure / E*
 TOL = 1e-8
 
 
@@ -78,17 +86,12 @@ def worker(args) -> None:
     petsc4py.init([])
     from mpi4py import MPI
 
-    from roughcontact.materials import Interface, Material
-    from roughcontact.normal import NormalProblem, make_solver
-    from roughcontact.surfaces import Topography
-
     comm = MPI.COMM_WORLD
     rows: list[dict] = []
     for n in args.sizes:
-        topography = Topography(np.asarray(scene_surface(n, 1).heights), 1.0 / n)
-        problem = NormalProblem(topography, Interface(Material(1.0, 0.0)), comm, operator="fft")
-        with make_solver(problem, "cg") as solver:
-            result = solver.solve_load(PRESSURE * topography.nominal_area, rotation=(0.0, 0.0))
+        topography = scene_topography(n)
+        problem = scene_problem(topography, comm)
+        result = solve_scene(problem)
         flexibility = problem.flexibility
         contact = np.flatnonzero(result.contact[topography.footprint])
 

@@ -24,9 +24,16 @@ import argparse
 
 import numpy as np
 
-from benchmarks.common import add_launch_arguments, emit, run_on_ranks, save_json, scene_surface, write_rows
-
-PRESSURE = 0.01          # mean pressure / E*
+from benchmarks.common import (
+    add_launch_arguments,
+    emit,
+    run_on_ranks,
+    save_json,
+    scene_problem,
+    scene_topography,
+    solve_scene,
+    write_rows,
+)
 
 
 def status(key: str) -> int:
@@ -54,20 +61,16 @@ def worker(args) -> None:
     petsc4py.init([])
     from mpi4py import MPI
 
-    from roughcontact.materials import Interface, Material
-    from roughcontact.normal import NormalProblem, make_solver
     from roughcontact.operators import operator_memory
-    from roughcontact.surfaces import Topography
 
     comm = MPI.COMM_WORLD
     rows: list[dict] = []
     for n in args.sizes:
-        topography = Topography(np.asarray(scene_surface(n, 1).heights), 1.0 / n)
+        topography = scene_topography(n)
         reset = comm.allreduce(reset_peak(), op=MPI.LAND)
         base = status("VmRSS")
-        problem = NormalProblem(topography, Interface(Material(1.0, 0.0)), comm, operator="fft")
-        with make_solver(problem, "cg") as solver:
-            result = solver.solve_load(PRESSURE * topography.nominal_area, rotation=(0.0, 0.0))
+        problem = scene_problem(topography, comm)
+        result = solve_scene(problem)
         problem.destroy()
         peak = comm.allreduce(status("VmHWM") - base, op=MPI.MAX)
         held = comm.allreduce(status("VmRSS") - base, op=MPI.MAX)

@@ -34,9 +34,9 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import ROOT, run_module, save_json, scene_surface
+from benchmarks.common import ROOT, SCENE_PRESSURE, run_module, save_json, scene_surface
 
-PRESSURE = 0.01          # mean pressure / E*
+PRESSURE = SCENE_PRESSURE          # mean pressure / E*
 
 
 def make_surface(n: int, seed: int = 1) -> np.ndarray:
@@ -74,28 +74,23 @@ def worker(args) -> None:
     petsc4py.init([])
     from mpi4py import MPI
 
-    from benchmarks.common import emit, write_rows
-    from roughcontact.materials import Interface, Material
-    from roughcontact.normal import NormalProblem, make_solver
+    from benchmarks.common import emit, scene_problem, solve_scene, write_rows
     from roughcontact.surfaces import Topography
 
     comm = MPI.COMM_WORLD
-    flat = Interface(Material(1.0, 0.0))                      # E* = 1 against a rigid flat
     rows: list[dict] = []
     for path in args.surfaces:
         series = "kernels" if Path(path).name.startswith("continuous") else "timing"
         heights = np.load(path)
         n = heights.shape[0]
         topo = Topography(heights, 1.0 / n)
-        load = PRESSURE * topo.nominal_area
         times, result = [], None
         repeats = 1 if n >= 2048 or series == "kernels" else args.repeats
         for _ in range(repeats):
             comm.Barrier()
             t0 = time.perf_counter()
-            problem = NormalProblem(topo, flat, comm, operator="fft")
-            with make_solver(problem, "cg") as solver:
-                result = solver.solve_load(load, rotation=(0.0, 0.0))
+            problem = scene_problem(topo, comm)
+            result = solve_scene(problem, PRESSURE)
             problem.destroy()
             comm.Barrier()
             times.append(time.perf_counter() - t0)

@@ -31,16 +31,19 @@ import time
 import numpy as np
 
 from benchmarks.common import (
+    SCENE_PRESSURE,
     add_launch_arguments,
     emit,
     run_on_ranks,
     save_json,
-    scene_surface,
+    scene_problem,
+    scene_topography,
+    solve_scene,
     sweep_scene,
     write_rows,
 )
 
-PRESSURES = {"scene": 0.01, "full": 1.0}            # mean pressure / E*
+PRESSURES = {"scene": SCENE_PRESSURE, "full": 1.0}            # mean pressure / E*
 
 
 class Counter:
@@ -70,11 +73,8 @@ def fft_pair_seconds(lengths: tuple[int, int], workers: int, repeats: int = 15) 
     return float(np.median(times[1:]))
 
 
-def scene_topography(name: str, n: int):
-    from roughcontact.surfaces import Topography
-
-    shape = {"fractal_dimension": 2.5} if name == "full" else {}
-    return Topography(np.asarray(scene_surface(n, 1, **shape).heights), 1.0 / n)
+#: the surface of each scene: the large-grid one, or fractal dimension 2.5
+SHAPES = {"scene": {}, "full": {"fractal_dimension": 2.5}}
 
 
 def worker(args) -> None:
@@ -83,18 +83,14 @@ def worker(args) -> None:
     petsc4py.init([])
     from mpi4py import MPI
 
-    from roughcontact.materials import Interface, Material
-    from roughcontact.normal import NormalProblem, make_solver
     from roughcontact.normal.constrained_cg import CGSettings
     from roughcontact.operators.convolution import SlabConvolution
 
     comm = MPI.COMM_WORLD
-    flat = Interface(Material(1.0, 0.0))                      # E* = 1 against a rigid flat
     rows: list[dict] = []
     for scene in args.scenes:
         for n in args.sizes:
-            topo = scene_topography(scene, n)
-            load = PRESSURES[scene] * topo.nominal_area
+            topo = scene_topography(n, **SHAPES[scene])
             grid = SlabConvolution((n, n), comm)           # the operator's padded lengths and threads
             pair = fft_pair_seconds(grid.lengths, grid.workers)
             for precision in args.precisions:
@@ -102,10 +98,9 @@ def worker(args) -> None:
                 for _ in range(1 if n >= 2048 else args.repeats):
                     comm.Barrier()
                     t0 = time.perf_counter()
-                    problem = NormalProblem(topo, flat, comm, operator="fft")
+                    problem = scene_problem(topo, comm)
                     counter = Counter(problem.flexibility.convolution)
-                    with make_solver(problem, "cg", settings=CGSettings(precision=precision)) as solver:
-                        result = solver.solve_load(load, rotation=(0.0, 0.0))
+                    result = solve_scene(problem, PRESSURES[scene], CGSettings(precision=precision))
                     comm.Barrier()
                     times.append(time.perf_counter() - t0)
                     counts = counter.counts

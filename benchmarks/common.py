@@ -92,6 +92,37 @@ def scene_surface(n: int, seed: int = 1, cutoff: float | None = None, **shape):
                            periodic=False, seed=seed, **shape)
 
 
+#: the large-grid scene's mean pressure over E* (against a rigid flat of E* = 1)
+SCENE_PRESSURE = 0.01
+
+
+def scene_topography(n: int, seed: int = 1, **shape):
+    """:func:`scene_surface` as a Topography of unit side (spacing 1/n)."""
+    import numpy as np
+
+    from roughcontact.surfaces import Topography
+
+    return Topography(np.asarray(scene_surface(n, seed, **shape).heights), 1.0 / n)
+
+
+def scene_problem(topography, comm):
+    """The scene's normal problem: ``topography`` against a rigid flat, E* = 1, FFT operator."""
+    from roughcontact.materials import Interface, Material
+    from roughcontact.normal import NormalProblem
+
+    return NormalProblem(topography, Interface(Material(1.0, 0.0)), comm, operator="fft")
+
+
+def solve_scene(problem, pressure: float = SCENE_PRESSURE, settings=None):
+    """One load-controlled CG solve of ``problem`` at ``pressure`` × its nominal area, rotation
+    fixed (``settings``: a CGSettings, default the solver's)."""
+    from roughcontact.normal import make_solver
+
+    options = {} if settings is None else {"settings": settings}
+    with make_solver(problem, "cg", **options) as solver:
+        return solver.solve_load(pressure * problem.topography.nominal_area, rotation=(0.0, 0.0))
+
+
 def sweep_scene(n: int):
     """The tangential benchmarks' scene: (topography, interface, closure). A midpoint surface
     (Δ = 2.3, seed 7) cropped to n × n, between two identical ν = 0 half-spaces, and the

@@ -174,12 +174,13 @@ class NormalProblem(Collective):
         from scipy.spatial import ConvexHull, QhullError
 
         if self._hull is None:
-            # the hull of the footprint is the hull of each grid row's first and last node
+            # the hull of the footprint is the hull of each grid row's first and last node (the
+            # nodes are in row order)
             rows = self.nodes[:, 0]
-            ends = np.flatnonzero(np.diff(rows, prepend=-1, append=-1) != 0)
-            mine = np.stack([self.x, self.y], axis=1)[np.unique(np.concatenate([ends[:-1], ends[1:] - 1]))] \
-                if rows.size else np.zeros((0, 2))
-            self._hull = np.concatenate(self.comm.allgather(mine))
+            first = np.flatnonzero(np.diff(rows, prepend=-1) != 0)
+            last = np.append(first[1:], rows.size) - 1 if rows.size else first
+            ends = np.union1d(first, last)
+            self._hull = np.concatenate(self.comm.allgather(np.stack([self.x[ends], self.y[ends]], axis=1)))
         try:
             hull = ConvexHull(self._hull)
         except (QhullError, ValueError):

@@ -77,10 +77,9 @@ class Flexibility:
         self._offsets = None
         r0, r1 = self.layout.rows
         if self.periodic:
-            table = self.table                       # the Ewald sum makes the whole period at once
+            table = self._whole_table()              # the Ewald sum makes the whole period at once
             self.convolution.set_kernel(table[r0:r1])
             self.diagonal = float(table[0, 0])
-            self._table = None                       # made again if explicit blocks need it
         else:
             # only this rank's rows of the Eq. 10 table: no array of N entries on every rank
             self.convolution.set_kernel(punch_kernel(self.shape, self.spacing, self.compliance,
@@ -126,13 +125,15 @@ class Flexibility:
         built on first use — by the dense matrix and explicit blocks only, as it holds N entries on
         every rank; None for a user's Mat."""
         if self._table is None and self.convolution is not None:
-            if self.periodic:
-                from .periodic import periodic_kernel
-
-                self._table = periodic_kernel(self.shape, self.spacing, self.compliance)
-            else:
-                self._table = punch_kernel(self.shape, self.spacing, self.compliance)
+            self._table = self._whole_table()
         return self._table
+
+    def _whole_table(self) -> np.ndarray:
+        if self.periodic:
+            from .periodic import periodic_kernel
+
+            return periodic_kernel(self.shape, self.spacing, self.compliance)
+        return punch_kernel(self.shape, self.spacing, self.compliance)
 
     # -------------------------------------------------------------- products
     def product(self, values: np.ndarray, single: bool = False) -> np.ndarray:

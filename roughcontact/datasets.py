@@ -55,7 +55,7 @@ def grid_coords(shape: tuple[int, int], spacing: float) -> dict:
 FIELDS = ("none", "contact", "force", "all")
 _LEVELS = {level: FIELDS[1:i + 1] for i, level in enumerate(FIELDS)}
 
-_FIELDS = {
+FIELD_TABLE = {
     # name: (getter, dtype, units, long_name, stored with)
     "force": (lambda r: r.force, np.float64, "N", "nodal contact force p̄ (Eq. 9)", "force"),
     "pressure": (lambda r: r.pressure, np.float64, "Pa", "contact pressure p̄ / s²", "all"),
@@ -89,17 +89,19 @@ def normal_sweep_dataset(results: Sequence[NormalResult], spacing: float, dim: s
     also the pressure and the deformed gap.
     """
     n = len(results)
+    names = stored_fields(FIELD_TABLE, fields)
+    for result in results if names else ():
+        result.require_whole("results")
     data = scalar_variables(results, _SCALARS, dim)
     if coordinate is None:
         coords = {dim: (dim, np.arange(n), {"long_name": "index of the solve in the sweep"})}
     else:
         data.pop(dim, None)
         coords = {dim: (dim, np.asarray(coordinate[0])[:n], dict(coordinate[1]))}
-    names = stored_fields(_FIELDS, fields)
     if names and n:
         coords.update(grid_coords(results[0].force.shape, spacing))
     for name in names if n else ():
-        get, dtype, units, long_name, _ = _FIELDS[name]
+        get, dtype, units, long_name, _ = FIELD_TABLE[name]
         data[name] = ((dim, "x", "y"), np.stack([get(r) for r in results]).astype(dtype),
                       {"units": units, "long_name": long_name})
     ds = xr.Dataset(data, coords=coords)

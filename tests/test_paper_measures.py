@@ -154,9 +154,9 @@ def test_quick_and_full_studies_differ_only_in_resolution_and_seeds(study):
 def test_field_levels_hold_the_ones_before():
     """fields = "force" keeps the contact sets and the nodal forces (what box counting, histograms and f(α)
     read) but not the pressure (= force / s²) and the gap; "all" keeps every field."""
-    from roughcontact.datasets import _FIELDS, stored_fields
+    from roughcontact.datasets import FIELD_TABLE, stored_fields
 
-    assert stored_fields(_FIELDS, "contact") == ["contact"]
-    assert sorted(stored_fields(_FIELDS, "force")) == ["contact", "force"]
-    assert sorted(stored_fields(_FIELDS, "all")) == ["contact", "force", "gap", "pressure"]
-    assert stored_fields(_FIELDS, "none") == []
+    assert stored_fields(FIELD_TABLE, "contact") == ["contact"]
+    assert sorted(stored_fields(FIELD_TABLE, "force")) == ["contact", "force"]
+    assert sorted(stored_fields(FIELD_TABLE, "all")) == ["contact", "force", "gap", "pressure"]
+    assert stored_fields(FIELD_TABLE, "none") == []

@@ -50,9 +50,12 @@ def as_dataset(source, load_dim: str = LOAD) -> xr.Dataset:
     if isinstance(source, xr.Dataset):
         return standard_names(source, load_dim)
     if isinstance(source, NormalResult):
+        source.require_whole("source")
         ds = normal_sweep_dataset([source], result_spacing(source), dim="step")
         return standard_names(ds, load_dim).isel({load_dim: 0})
     if isinstance(source, Sequence) and source and all(isinstance(r, NormalResult) for r in source):
+        for result in source:
+            result.require_whole("source")
         return standard_names(normal_sweep_dataset(list(source), result_spacing(source[0]), dim="step"),
                               load_dim)
     raise InputError("source", "must be a NormalResult, a non-empty sequence of them or an xarray Dataset, "

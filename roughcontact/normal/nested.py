@@ -72,13 +72,13 @@ class NestedStart:
         try:
             if not free:
                 closure = rigid[0] + rigid[1] * shift[1] + rigid[2] * shift[0] + offset
-                result = self.solver.solve_closure(closure, (rigid[1], rigid[2]))
+                result = self.solver.solve_closure(closure, (rigid[1], rigid[2]), gather=False)
             elif len(free) == 1:
-                result = self.solver.solve_load(loads[0], rotation=(rigid[1], rigid[2]))
+                result = self.solver.solve_load(loads[0], rotation=(rigid[1], rigid[2]), gather=False)
             else:
                 load = loads[0]
                 moments = (-loads[1] + load * shift[1], -loads[2] + load * shift[0])
-                result = self.solver.solve_load(load, moments=moments)
+                result = self.solver.solve_load(load, moments=moments, gather=False)
         except (ConvergenceError, InputError) as exc:
             warnings.warn(f"the coarse-grid start failed ({exc}); the solve starts from independent "
                           "punches instead", RuntimeWarning, stacklevel=3)
@@ -89,7 +89,7 @@ class NestedStart:
         coarse.flexibility.release_buffers()
         motion = np.array([result.closure - result.rotation[0] * shift[1] - result.rotation[1] * shift[0]
                            - offset, *result.rotation])
-        forces = prolong(result, fine)
+        forces = prolong(result, coarse, fine)
         return forces, motion
 
     def destroy(self) -> None:
@@ -101,22 +101,52 @@ class NestedStart:
 
 def _height_offset(fine: NormalProblem, coarse: NormalProblem) -> float:
     """max Δh on the coarse footprint minus max Δh on the fine one (≤ 0: decimation drops nodes)."""
-    top = lambda pb: float(pb.topography.heights[pb.topography.footprint].max())   # noqa: E731
-    return top(coarse) - top(fine)
+    return coarse.top_height - fine.top_height
 
 
-def prolong(coarse: NormalResult, fine: NormalProblem) -> np.ndarray:
+def prolong(coarse_result: NormalResult, coarse: NormalProblem, fine: NormalProblem) -> np.ndarray:
     """Fine nodal forces (this rank's nodes) from a solution on the grid decimated by 2.
 
     The coarse pressure (zero off its contact set and footprint) is
     interpolated bilinearly at the fine nodes, which sit on coarse nodes or
-    halfway between them, and multiplied by the fine cell area s².
+    halfway between them, and multiplied by the fine cell area s². The
+    coarse result holds each rank's own coarse rows (a ``gather=False``
+    solve); a rank receives the coarse rows its fine rows fall between
+    (:func:`coarse_rows`), not the whole coarse grid.
     """
-    pressure = np.where(coarse.contact, coarse.pressure, 0.0)
     nodes = fine.nodes
     i, j = nodes[:, 0], nodes[:, 1]
-    cx, cy = pressure.shape
+    cx, cy = coarse.topography.shape
     i0, j0 = np.minimum(i // 2, cx - 1), np.minimum(j // 2, cy - 1)
     i1, j1 = np.minimum(i0 + (i % 2), cx - 1), np.minimum(j0 + (j % 2), cy - 1)
+    needed = (int(i0.min()), int(i1.max()) + 1) if i.size else (0, 0)
+    mine = np.where(coarse_result.contact, coarse_result.pressure, 0.0)
+    if coarse_result.distributed:
+        pressure = coarse_rows(mine, coarse_result.rows, needed, coarse.comm)
+        i0, i1 = i0 - needed[0], i1 - needed[0]
+    else:
+        pressure = mine
     value = 0.25 * (pressure[i0, j0] + pressure[i1, j0] + pressure[i0, j1] + pressure[i1, j1])
     return value * fine.topography.spacing**2
+
+
+def coarse_rows(held: np.ndarray, rows: tuple[int, int], needed: tuple[int, int], comm) -> np.ndarray:
+    """Rows ``needed`` = (start, stop) of a field whose rows are split over ``comm`` in rank order,
+    this rank holding ``held`` = rows ``rows``: one Alltoallv, each rank sending each other the
+    part of its rows the other needs."""
+    width = held.shape[1]
+    everyone_needs = comm.allgather(needed)
+    everyone_holds = comm.allgather(tuple(rows))
+
+    def overlap(a, b) -> tuple[int, int]:
+        start, stop = max(a[0], b[0]), min(a[1], b[1])
+        return (start, stop) if stop > start else (start, start)
+
+    sends = [overlap(rows, other) for other in everyone_needs]
+    receives = [overlap(other, needed) for other in everyone_holds]
+    send = np.concatenate([held[a - rows[0]:b - rows[0]].ravel() for a, b in sends])
+    out = np.empty((needed[1] - needed[0], width))
+    counts = [(b - a) * width for a, b in receives]
+    # the holders tile the grid in rank order, so what arrives, in rank order, is the needed rows in order
+    comm.Alltoallv([send, [(b - a) * width for a, b in sends]], [out, counts])
+    return out

@@ -78,6 +78,7 @@ class NormalProblem(Collective):
         top, negative_bottom = self.allmax(np.array([heights.max(initial=-np.inf),
                                                      -heights.min(initial=np.inf)]))
         self.gap0 = top - heights
+        self.top_height = float(top)                                  # max Δh on the footprint
         # the scale of heights, used to make gap tolerances relative
         self.height_range = float(top + negative_bottom) if self.size > 1 else 0.0
         self._extent = float(self.allmax(max(np.abs(self.x).max(initial=0.0), np.abs(self.y).max(initial=0.0))))

@@ -6,6 +6,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..errors import InputError
+
 
 class ContactState(NamedTuple):
     """A converged contact state on this rank's nodes, before it becomes a :class:`NormalResult`."""
@@ -21,10 +23,14 @@ class ContactState(NamedTuple):
 
 @dataclass(frozen=True)
 class NormalResult:
-    """The converged state of one normal contact solve, identical on every rank.
+    """The converged state of one normal contact solve.
 
-    Fields are (nx, ny) arrays on the topography's grid, zero (``gap``: NaN)
-    outside the footprint. Forces are the nodal resultants p̄ of Eq. 9 (N);
+    Fields are (nx, ny) arrays on the topography's grid, identical on every
+    rank, zero (``gap``: NaN) outside the footprint; or, for a solve asked for
+    ``gather=False``, each rank's own grid rows ``rows`` = (start, stop) of
+    them, (stop − start, ny), so that no rank holds N values (gather them with
+    :func:`~.fields.gather_result`, write them with
+    :func:`~.fields.write_result`). Scalars are the same on every rank either way. Forces are the nodal resultants p̄ of Eq. 9 (N);
     ``pressure`` is p̄ / s² (Pa). Coordinates (``centroid``) are in the grid's
     frame (node (i, j) at (i s, j s)); moments are about the footprint's
     centroid ``reference_point``.
@@ -57,6 +63,21 @@ class NormalResult:
     converged: bool = True
     reason: str = "CONVERGED"
     residual_history: tuple[float, ...] = field(default_factory=tuple)
+    rows: tuple[int, int] | None = None
+    contact_nodes: int = -1
+
+    @property
+    def distributed(self) -> bool:
+        """The fields are this rank's grid rows only (a solve with ``gather=False``)."""
+        return self.rows is not None
+
+    def require_whole(self, parameter: str = "normal") -> None:
+        """:class:`InputError` if the fields are one rank's rows: what needs the whole grid on
+        every rank (tangential solves, datasets, analysis) cannot take this result."""
+        if self.rows is not None:
+            raise InputError(parameter, f"holds only this rank's grid rows {self.rows[0]}:{self.rows[1]} "
+                                        "(solved with gather=False); gather it first with "
+                                        "roughcontact.normal.gather_result(result, problem)")
 
     @property
     def contact_fraction(self) -> float:
@@ -65,7 +86,8 @@ class NormalResult:
 
     @property
     def contact_count(self) -> int:
-        return int(self.contact.sum())
+        """Nodes in contact (all ranks)."""
+        return self.contact_nodes if self.contact_nodes >= 0 else int(self.contact.sum())
 
     def summary(self) -> str:
         flags = [f for f, on in (("no contact", self.no_contact), ("full contact", self.full_contact)) if on]

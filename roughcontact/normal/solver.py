@@ -52,6 +52,15 @@ class NormalSolver(Collective):
         its contact set, forces and rigid motion, e.g. a corrective solve from the actual one."""
         self._check_alive()
         pb = self.problem
+        if result.distributed:
+            layout = pb.flexibility.layout
+            if tuple(result.rows) != tuple(layout.rows) or result.force.shape != layout.local_mask.shape:
+                raise InputError("result", f"holds grid rows {result.rows[0]}:{result.rows[1]}, this rank "
+                                           f"owns {layout.rows[0]}:{layout.rows[1]}: it was solved on "
+                                           "another problem or communicator")
+            mask = layout.local_mask
+            self.start_from(result.force[mask], np.array([result.closure, *result.rotation]), result.contact[mask])
+            return
         footprint = pb.topography.footprint
         self.start_from(result.force[footprint][pb.start:pb.stop], np.array([result.closure, *result.rotation]),
                         result.contact[footprint][pb.start:pb.stop])
@@ -65,20 +74,26 @@ class NormalSolver(Collective):
         self.active = self.forces > 0.0 if active is None else np.array(active, dtype=bool)
         self.rigid = np.array(rigid, dtype=float)
 
-    def solve_closure(self, closure: float, rotation: tuple[float, float] = (0.0, 0.0)) -> NormalResult:
-        """Displacement control: impose δz and (θx, θy) (Eq. 7)."""
+    def solve_closure(self, closure: float, rotation: tuple[float, float] = (0.0, 0.0),
+                      gather: bool = True) -> NormalResult:
+        """Displacement control: impose δz and (θx, θy) (Eq. 7).
+
+        ``gather``: the result's fields are the whole grid on every rank (True), or only each
+        rank's own grid rows (False: no rank holds N values; :mod:`.fields` gathers or writes them).
+        """
         self._check_alive()
         closure = _finite("closure", closure)
         rotation = tuple(_finite(f"rotation[{k}]", v) for k, v in enumerate(_pair("rotation", rotation)))
         return self._run(np.array([closure, *rotation]), fixed=(0, 1, 2), loads=np.zeros(3),
-                         control="displacement")
+                         control="displacement", gather=gather)
 
     def solve_load(self, load: float, moments: tuple[float, float] = (0.0, 0.0),
-                   rotation: tuple[float, float] | None = None) -> NormalResult:
+                   rotation: tuple[float, float] | None = None, gather: bool = True) -> NormalResult:
         """Load control: impose P and (Mx, My) about the footprint centroid (Eq. 8).
 
         The solver finds δz and, unless ``rotation`` fixes them, θx, θy; with a
         fixed rotation the moments are outputs and ``moments`` must be left 0.
+        ``gather`` as in :meth:`solve_closure`.
         """
         self._check_alive()
         load = _finite("load", load)
@@ -100,10 +115,16 @@ class NormalSolver(Collective):
                 raise InputError("moments", f"the load point (x, y) = ({point[0] + self.problem.centroid[0]:.6g}, "
                                             f"{point[1] + self.problem.centroid[1]:.6g}) m lies outside the "
                                             "footprint: no compressive pressure can balance it")
-        return self._run(rigid, fixed=fixed, loads=np.array([load, -mx, -my]), control="load")
+        return self._run(rigid, fixed=fixed, loads=np.array([load, -mx, -my]), control="load", gather=gather)
 
     # ------------------------------------------------------------ internals
-    def _run(self, rigid: np.ndarray, fixed: tuple[int, ...], loads: np.ndarray, control: str) -> NormalResult:
+    def _run(self, rigid: np.ndarray, fixed: tuple[int, ...], loads: np.ndarray, control: str,
+             gather: bool) -> NormalResult:
+        if not isinstance(gather, (bool, np.bool_)):
+            raise InputError("gather", f"must be True or False, got {gather!r}")
+        return self._run_gathered(rigid, fixed, loads, control, bool(gather))
+
+    def _run_gathered(self, rigid, fixed, loads, control: str, gather: bool) -> NormalResult:
         t0 = time.perf_counter()
         self.problem._check_alive()
         free = [k for k in range(3) if k not in fixed]
@@ -121,7 +142,7 @@ class NormalSolver(Collective):
             state = ContactState(np.zeros(n), np.zeros(n, bool), -pb.interpenetration(rigid), 0, 0, 0.0, ())
         else:
             state, rigid = self._solve(rigid, free, loads)
-        return self._finish(state, rigid, control, t0)
+        return self._finish(state, rigid, control, t0, gather)
 
     def _solve(self, rigid: np.ndarray, free: list[int], loads: np.ndarray) -> tuple[ContactState, np.ndarray]:
         """The contact state for r with the components ``free`` found from ``loads[free]``."""
@@ -146,24 +167,32 @@ class NormalSolver(Collective):
         m = int(np.argmax((approach >= gaps) & (approach <= upper)))
         return float(approach[m])
 
-    def _finish(self, state: ContactState, rigid, control, t0) -> NormalResult:
+    def _finish(self, state: ContactState, rigid, control, t0, gather: bool = True) -> NormalResult:
         pb = self.problem
         pressure, active, gap = state.pressure, state.active, state.gap
         self.active = active.copy()
         self.forces = pressure.copy()
         self.rigid = rigid.copy()
-        # each field straight from its gathered vector: N values per field on every rank, no more
         s = pb.topography.spacing
-        force = pb.to_field(pb.gather(pressure), fresh=True)
-        contact = pb.to_field(pb.gather(active), False, fresh=True)
-        gaps = pb.to_field(pb.gather(np.where(active, 0.0, gap)), np.nan, fresh=True)
+        gaps = np.where(active, 0.0, gap)
+        if gather:
+            # each field straight from its gathered vector: N values per field on every rank, no more
+            force = pb.to_field(pb.gather(pressure), fresh=True)
+            contact = pb.to_field(pb.gather(active), False, fresh=True)
+            gaps = pb.to_field(pb.gather(gaps), np.nan, fresh=True)
+            rows = None
+        else:
+            layout = pb.flexibility.layout
+            rows, mask = tuple(layout.rows), layout.local_mask
+            force, contact, gaps = (_rows_field(mask, values, fill) for values, fill in
+                                    ((pressure, 0.0), (active, False), (gaps, np.nan)))
+        n_contact = int(pb.allsum(np.count_nonzero(active)))
         moments = pb.allsum(np.array([pressure.sum(), pressure @ pb.y, pressure @ pb.x]))
         load = float(moments[0])
         if load > 0.0:
             centroid = (pb.centroid[0] + moments[2] / load, pb.centroid[1] + moments[1] / load)
         else:
             centroid = (float("nan"), float("nan"))
-        n_contact = int(np.count_nonzero(contact))
         return NormalResult(
             force=force, pressure=force / s**2, contact=contact, gap=gaps,
             load=load, moments=(float(moments[1]), float(moments[2])),
@@ -177,7 +206,14 @@ class NormalSolver(Collective):
             choice=f"operator {pb.operator_kind} ({pb.operator_reason}); method {self.method} ({self.method_reason})",
             coarse_iterations=int(getattr(self, "coarse_iterations", 0)),
             no_contact=n_contact == 0, full_contact=n_contact == pb.size,
-            residual_history=tuple(state.history))
+            residual_history=tuple(state.history), rows=rows, contact_nodes=n_contact)
+
+
+def _rows_field(mask: np.ndarray, values: np.ndarray, fill) -> np.ndarray:
+    """This rank's grid rows of a field: ``values`` (this rank's nodes) on the footprint ``mask``."""
+    field = np.full(mask.shape, fill, dtype=np.asarray(values).dtype)
+    field[mask] = values
+    return field
 
 
 def _pair(name: str, value) -> tuple:

@@ -67,6 +67,7 @@ def check_normal(problem: NormalProblem, normal) -> None:
     """:class:`InputError` unless ``normal`` solved ``problem`` with a load P > 0."""
     if not isinstance(normal, NormalResult):
         raise InputError("normal", f"must be a NormalResult, got {type(normal).__name__}")
+    normal.require_whole("normal")
     if normal.force.shape != problem.topography.shape:
         raise InputError("normal", f"its fields have shape {normal.force.shape}, the problem's grid "
                                    f"{problem.topography.shape}: it was solved on another problem")

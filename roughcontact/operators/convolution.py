@@ -209,7 +209,7 @@ class SlabConvolution:
         rows, columns = self._buffers[single]
         rows[:, :ny] = field
         spectra = sfft.rfft(rows, axis=1, workers=self.workers)
-        columns[:nx] = self._to_columns(spectra)
+        self._to_columns(spectra, out=columns)
         columns[nx:] = 0.0
         return sfft.fft(columns, axis=0, overwrite_x=True, workers=self.workers)
 
@@ -227,38 +227,62 @@ class SlabConvolution:
                           workers=self.workers)[:, :ny]
 
     # ------------------------------------------------------------ transposes
-    def _to_columns(self, spectra: np.ndarray) -> np.ndarray:
-        """(my rows, all columns) → (all rows, my columns)."""
+    # Both are one MPI_Alltoallw: the blocks of the rows' side, strided (each row's run of a rank's
+    # columns), go out and come in through vector datatypes, and the columns' side is read and
+    # written in place; no packed copy of either side is made (two temporaries of the rank's
+    # spectrum per transpose when they were packed: 2 ranks held 18 % more than half of one).
+    def _to_columns(self, spectra: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """(my rows, all columns) → (all rows, my columns), into ``out`` (its first nx rows) if given."""
         if self.size == 1:
-            return spectra
-        my_rows = spectra.shape[0]
-        send = np.concatenate([spectra[:, c0:c1].ravel() for c0, c1 in self.column_blocks])
-        send_counts = [my_rows * (c1 - c0) for c0, c1 in self.column_blocks]
+            if out is None:
+                return spectra
+            out[:self.shape[0]] = spectra
+            return out[:self.shape[0]]
         width = self.my_columns[1] - self.my_columns[0]
-        recv_counts = [(r1 - r0) * width for r0, r1 in self.row_blocks]
-        recv = np.empty(self.shape[0] * width, dtype=spectra.dtype)
-        self._alltoallv(send, send_counts, recv, recv_counts)
-        return recv.reshape(self.shape[0], width)
+        if out is None:
+            out = np.empty((self.shape[0], width), dtype=spectra.dtype)
+        spectra = np.ascontiguousarray(spectra)
+        self._exchange(rows=spectra, columns=out, to_columns=True)
+        return out[:self.shape[0]]
 
     def _to_rows(self, columns: np.ndarray) -> np.ndarray:
         """(all rows, my columns) → (my rows, all columns)."""
         if self.size == 1:
             return columns
         columns = np.ascontiguousarray(columns)
-        width = columns.shape[1]
-        send_counts = [(r1 - r0) * width for r0, r1 in self.row_blocks]
-        my_rows = self.rows[1] - self.rows[0]
-        recv_counts = [my_rows * (c1 - c0) for c0, c1 in self.column_blocks]
-        recv = np.empty(sum(recv_counts), dtype=columns.dtype)
-        self._alltoallv(columns.ravel(), send_counts, recv, recv_counts)
-        out = np.empty((my_rows, self.columns), dtype=columns.dtype)
-        offset = 0
-        for (c0, c1), count in zip(self.column_blocks, recv_counts):
-            out[:, c0:c1] = recv[offset:offset + count].reshape(my_rows, c1 - c0)
-            offset += count
+        out = np.empty((self.rows[1] - self.rows[0], self.columns), dtype=columns.dtype)
+        self._exchange(rows=out, columns=columns, to_columns=False)
         return out
 
-    def _alltoallv(self, send, send_counts, recv, recv_counts) -> None:
-        send_displ = np.concatenate([[0], np.cumsum(send_counts)[:-1]]).astype(int)
-        recv_displ = np.concatenate([[0], np.cumsum(recv_counts)[:-1]]).astype(int)
-        self.comm.Alltoallv([send, (send_counts, send_displ)], [recv, (recv_counts, recv_displ)])
+    def _exchange(self, rows: np.ndarray, columns: np.ndarray, to_columns: bool) -> None:
+        """Alltoallw between this rank's (my rows, all columns) array ``rows`` and its (≥ nx rows,
+        my columns) array ``columns``, C-ordered, in the direction ``to_columns``."""
+        from mpi4py.util.dtlib import from_numpy_dtype
+
+        base = from_numpy_dtype(rows.dtype)
+        item = rows.dtype.itemsize
+        my_rows = rows.shape[0]
+        width = columns.shape[1]
+        strided, strided_displ, created = [], [], []
+        for c0, c1 in self.column_blocks:
+            if my_rows and c1 > c0:
+                kind = base.Create_vector(my_rows, c1 - c0, self.columns).Commit()
+                created.append(kind)
+                strided.append(kind)
+            else:
+                strided.append(base)
+            strided_displ.append(c0 * item)
+        strided_counts = [1 if (my_rows and c1 > c0) else 0 for c0, c1 in self.column_blocks]
+        block_counts = [(r1 - r0) * width for r0, r1 in self.row_blocks]
+        block_displ = [r0 * width * item for r0, r1 in self.row_blocks]
+        blocks = [base] * self.size
+        row_side = [rows, (strided_counts, strided_displ), strided]
+        column_side = [columns, (block_counts, block_displ), blocks]
+        try:
+            if to_columns:
+                self.comm.Alltoallw(row_side, column_side)
+            else:
+                self.comm.Alltoallw(column_side, row_side)
+        finally:
+            for kind in created:
+                kind.Free()

@@ -8,14 +8,17 @@ Each size runs in processes of its own; each rank makes the surface (the input a
 heights and the footprint on every rank), then the high-water mark is reset
 (``/proc/self/clear_refs``) and the resident set noted; a row gives, for the
 busiest rank, the peak above that point during problem set-up + solve, the
-resident set left after it (the result's fields included: a NormalResult
-holds N values per field on every rank), and
+resident set left after it (the result's fields included), and
 :func:`roughcontact.operators.operator_memory`'s estimate. The report fits
 peak(k) = N (R + D/k) over the rank counts: R bytes per node held on every
 rank, D bytes per node divided among the ranks — the figures that size a
 larger run (docs/solvers.md). More ranks than cores is fine for memory.
 
-    python -m benchmarks.bench_memory [--sizes 1024 2048] [--ranks 1 2 4]
+The solve keeps its result's fields on each rank's own rows (``gather=False``,
+:mod:`roughcontact.normal.fields`), as a run too large to replicate N values on every rank
+would; ``--gather`` measures the default, whole fields on every rank (25 B per node more).
+
+    python -m benchmarks.bench_memory [--sizes 1024 2048] [--ranks 1 2 4] [--gather]
         [--output results/bench_memory.json]
 """
 from __future__ import annotations
@@ -61,6 +64,7 @@ def worker(args) -> None:
     petsc4py.init([])
     from mpi4py import MPI
 
+    import roughcontact.normal  # noqa: F401 - its imports belong to the process, not to the solve
     from roughcontact.operators import operator_memory
 
     comm = MPI.COMM_WORLD
@@ -70,7 +74,7 @@ def worker(args) -> None:
         reset = comm.allreduce(reset_peak(), op=MPI.LAND)
         base = status("VmRSS")
         problem = scene_problem(topography, comm)
-        result = solve_scene(problem)
+        result = solve_scene(problem, gather=args.gather)
         problem.destroy()
         peak = comm.allreduce(status("VmHWM") - base, op=MPI.MAX)
         held = comm.allreduce(status("VmRSS") - base, op=MPI.MAX)
@@ -79,7 +83,7 @@ def worker(args) -> None:
             "n": n, "ranks": comm.Get_size(), "peak_bytes_per_rank": peak, "peak_per_node": peak / nodes,
             "held_after_bytes_per_rank": held, "held_after_per_node": held / nodes,
             "estimate_bytes_per_rank": operator_memory("fft", nodes, comm.Get_size()),
-            "peak_reset": bool(reset), "iterations": result.linear_iterations,
+            "peak_reset": bool(reset), "gathered": args.gather, "iterations": result.linear_iterations,
             "residual": result.residual})
     write_rows(comm, rows, args.json)
 
@@ -109,12 +113,15 @@ def main() -> None:
     add_launch_arguments(parser, repeats=1, output="results/bench_memory.json")
     parser.set_defaults(ranks=[1, 2, 4])
     parser.add_argument("--sizes", type=int, nargs="+", default=[1024, 2048])
+    parser.add_argument("--gather", action="store_true",
+                        help="whole result fields on every rank (the default of a solve) instead of rows")
     args = parser.parse_args()
     if args.worker:
         return worker(args)
     # one process per size and rank count: memory freed by an earlier solve stays in the process
     # (the allocator keeps it), which would hide part of the next one's peak
-    rows = [row for n in args.sizes for row in run_on_ranks(__spec__.name, args.ranks, ["--sizes", str(n)])]
+    extra = ["--gather"] if args.gather else []
+    rows = [row for n in args.sizes for row in run_on_ranks(__spec__.name, args.ranks, ["--sizes", str(n), *extra])]
     save_json({"rows": rows, "report": report(rows)}, args.output)
 
 

@@ -113,14 +113,15 @@ def scene_problem(topography, comm):
     return NormalProblem(topography, Interface(Material(1.0, 0.0)), comm, operator="fft")
 
 
-def solve_scene(problem, pressure: float = SCENE_PRESSURE, settings=None):
+def solve_scene(problem, pressure: float = SCENE_PRESSURE, settings=None, gather: bool = True):
     """One load-controlled CG solve of ``problem`` at ``pressure`` × its nominal area, rotation
-    fixed (``settings``: a CGSettings, default the solver's)."""
+    fixed (``settings``: a CGSettings, default the solver's; ``gather=False``: each rank keeps its
+    own rows of the result's fields)."""
     from roughcontact.normal import make_solver
 
     options = {} if settings is None else {"settings": settings}
     with make_solver(problem, "cg", **options) as solver:
-        return solver.solve_load(pressure * problem.topography.nominal_area, rotation=(0.0, 0.0))
+        return solver.solve_load(pressure * problem.topography.nominal_area, rotation=(0.0, 0.0), gather=gather)
 
 
 def sweep_scene(n: int):

@@ -11,11 +11,14 @@ held once the topography was made, as measured by
 own, the high-water mark reset after the surface):
 
 - what every rank holds whatever the number of ranks — the result's fields
-  (a :class:`~roughcontact.normal.result.NormalResult` is the same on every
-  rank: force, pressure, contact and gap, 25 B/node) and those of the coarse
-  levels of a nested start — about :data:`REPLICATED` bytes per node; the
-  operator itself keeps only its rank's rows of the Eq. 10 table, nodes and
-  coordinates;
+  in the default, gathered form (a :class:`~roughcontact.normal.result.NormalResult`
+  whole on every rank: force, pressure, contact and gap, 25 B/node, made
+  after the solver's vectors are freed), the coarse topography of a nested
+  start and the C allocator's retention of freed mid-sized arrays — at most
+  :data:`REPLICATED` bytes per node; the operator itself keeps only its
+  rank's rows of the Eq. 10 table, nodes and coordinates, and a solve with
+  ``gather=False`` only its rank's rows of the fields
+  (:mod:`roughcontact.normal.fields`);
 - the rest is split over the ranks: the FFT symbols of the operator and its
   preconditioner, the padded transform buffers in double and single
   precision, the solver's vectors and the coarse levels (whose transform
@@ -24,10 +27,11 @@ own, the high-water mark reset after the surface):
 - ``"dense"`` adds the explicit N × N matrix, 8 N²/ranks bytes, and the
   C-ordered rows its assembly fills (the same memory, handed to PETSc).
 
-Measured with the constrained CG (mixed precision, nested start), peak bytes
-per node per rank on 1, 2, 4 ranks: 1024² 320, 182, 102; 2048² 297, 170,
-98; 4096² 285, 157, 84 — a fit N (R + D/ranks) gives R = 20–35, D =
-263–289. The constants bound every one of these from above. ``"fft-periodic"`` makes its whole
+Measured with the constrained CG (mixed precision, nested start, fields by rows), peak bytes
+per node per rank on 1, 2, 4 ranks: 1024² 310, 162, 88; 2048² 298, 169, 87; 4096² 285, 149,
+78 — a fit N (R + D/ranks) gives R = 10–22, D = 275–296 (docs/solvers.md). The constants bound
+every one of these from above, and the same solve with the default, gathered result (1024²:
+309, 162, 102; 2048²: 298, 168, 102). ``"fft-periodic"`` makes its whole
 Ewald-summed table once at set-up (8 B/node, transient). Explicit blocks of H_SS (small contact
 sets) also build the whole table over signed offsets, 32 B/node on every
 rank, while they are used.

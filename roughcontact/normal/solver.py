@@ -24,6 +24,7 @@ import numpy as np
 from ..checks import require_finite as _finite
 from ..collective import Collective
 from ..errors import InputError
+from ..threads import single_blas_thread
 from .problem import NormalProblem
 from .result import ContactState, NormalResult
 
@@ -122,9 +123,10 @@ class NormalSolver(Collective):
              gather: bool) -> NormalResult:
         if not isinstance(gather, (bool, np.bool_)):
             raise InputError("gather", f"must be True or False, got {gather!r}")
-        return self._run_gathered(rigid, fixed, loads, control, bool(gather))
+        with single_blas_thread():                     # BLAS threads would spin beside the FFT's
+            return self._run_limited(rigid, fixed, loads, control, bool(gather))
 
-    def _run_gathered(self, rigid, fixed, loads, control: str, gather: bool) -> NormalResult:
+    def _run_limited(self, rigid, fixed, loads, control: str, gather: bool) -> NormalResult:
         t0 = time.perf_counter()
         self.problem._check_alive()
         free = [k for k in range(3) if k not in fixed]

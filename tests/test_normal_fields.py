@@ -138,3 +138,37 @@ def test_a_warm_start_from_rows_is_the_warm_start_from_the_whole_result(comm):
             solver.warm_start(rows)
     other.destroy()
     problem.destroy()
+
+
+@pytest.mark.parametrize("needed", [(0, 0), (0, 1), (3, 17), (10, 40), (0, 40), (39, 40)])
+def test_coarse_rows_are_the_whole_fields_rows(comm, needed):
+    """Any window of rows, wherever the ranks' blocks start and end, is the whole field's, bit for
+    bit; each rank asks for its own window (here shifted by its rank, so windows overlap blocks of
+    several ranks)."""
+    from roughcontact.normal.nested import coarse_rows
+    from roughcontact.operators.convolution import split
+
+    whole = np.random.default_rng(7).standard_normal((40, 9))
+    rows = split(40, comm.Get_size())[comm.Get_rank()]
+    start = min(needed[0] + comm.Get_rank(), needed[1])
+    window = (start, needed[1])
+    got = coarse_rows(whole[rows[0]:rows[1]].copy(), rows, window, comm)
+    np.testing.assert_array_equal(got, whole[window[0]:window[1]])
+
+
+def test_the_prolongation_from_rows_is_the_one_from_the_gathered_coarse_result(comm):
+    """The nested start's coarse solve keeps its fields by rows; the fine forces it prolongs are
+    those of the gathered coarse result, bit for bit (each rank receives only the coarse rows
+    between which its fine rows fall)."""
+    from roughcontact.normal.nested import prolong
+    from roughcontact.surfaces import coarsen
+
+    fine = disc_problem(comm, n=41)
+    coarse = NormalProblem(coarsen(fine.topography, 2, "decimate"), ROCK, comm, operator="fft")
+    with make_solver(coarse, "cg") as solver:
+        rows = solver.solve_load(0.05, rotation=(0.0, 0.0), gather=False)
+    whole = gather_result(rows, coarse)
+    np.testing.assert_array_equal(prolong(rows, coarse, fine), prolong(whole, coarse, fine))
+    assert comm.allreduce(float(prolong(rows, coarse, fine).sum())) > 0.0
+    coarse.destroy()
+    fine.destroy()

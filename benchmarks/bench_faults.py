@@ -136,8 +136,11 @@ class Job:
         return env
 
     def run(self, output: str, log: str, fault: str | None = None, timeout: float = 120, full: str | None = None):
-        return subprocess.run(self.command(output), env=self.env(log, fault, full), capture_output=True, text=True,
+        """Run to the end: mpiexec's exit and every rank's (:func:`settle`)."""
+        done = subprocess.run(self.command(output), env=self.env(log, fault, full), capture_output=True, text=True,
                               timeout=timeout)
+        settle(self.root / output)
+        return done
 
     def start(self, output: str, log: str, pids: Path | None = None, *extra: str, ranks: int = 2,
               capture: bool = False) -> subprocess.Popen:
@@ -205,6 +208,20 @@ def run_processes(output: Path) -> list[int]:
         if target in arguments and state not in ("Z", "X"):
             found.append(int(entry))
     return found
+
+
+def settle(output: Path, limit: float = 30.0) -> float:
+    """Wait until no process of the run on ``output`` is left; the seconds waited. After an abort
+    mpiexec may return before MPICH's proxies have killed the other ranks (each in a session of
+    its own), which meanwhile can finish one more task file; a rank alive ``limit`` s later is
+    killed and reported."""
+    start = time.monotonic()
+    while pids := run_processes(output):
+        if time.monotonic() - start > limit:
+            kill_run(output)
+            raise RuntimeError(f"processes {pids} of the run on {output} outlived mpiexec by {limit:g} s")
+        time.sleep(0.01)
+    return time.monotonic() - start
 
 
 def kill_run(output: Path, process: subprocess.Popen | None = None, limit: float = 30.0) -> None:

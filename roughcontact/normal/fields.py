@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from .problem import NormalProblem
+from .problem import NormalProblem, allgather_into
 from .result import NormalResult
 
 
@@ -51,15 +51,11 @@ def gather_result(result: NormalResult, problem: NormalProblem) -> NormalResult:
     blocks = _row_blocks(result, problem)
     if not result.distributed:
         return result
-    ny = problem.topography.shape[1]
-    counts = [(stop - start) * ny for start, stop in blocks]
+    shape = problem.topography.shape
+    counts = [(stop - start) * shape[1] for start, stop in blocks]
 
     def whole(block: np.ndarray) -> np.ndarray:
-        flag = block.dtype == bool
-        send = np.ascontiguousarray(block).view(np.uint8) if flag else np.ascontiguousarray(block)
-        out = np.empty((problem.topography.shape[0], ny), dtype=send.dtype)
-        problem.comm.Allgatherv(send, [out, counts])
-        return out.view(bool) if flag else out
+        return allgather_into(problem.comm, block, counts, shape)
 
     force = whole(result.force)
     spacing = problem.topography.spacing
@@ -75,11 +71,11 @@ def write_result(result: NormalResult, problem: NormalProblem, path: str | os.Pa
     (``"all"``: force, pressure, gap and contact set). Every rank returns the
     path or raises the same ``OSError``.
     """
-    from ..datasets import FIELD_TABLE, check_fields, stored_fields
+    from ..datasets import FIELD_TABLE, stored_fields
 
     comm, rank = problem.comm, problem.comm.Get_rank()
     blocks = _row_blocks(result, problem)
-    names = stored_fields(FIELD_TABLE, check_fields(fields))
+    names = stored_fields(FIELD_TABLE, fields)
     path = Path(path)
     tmp = path.with_name(path.name + ".part")
     handle, error = None, None

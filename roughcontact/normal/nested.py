@@ -123,9 +123,9 @@ def prolong(coarse_result: NormalResult, coarse: NormalProblem, fine: NormalProb
     mine = np.where(coarse_result.contact, coarse_result.pressure, 0.0)
     if coarse_result.distributed:
         pressure = coarse_rows(mine, coarse_result.rows, needed, coarse.comm)
-        i0, i1 = i0 - needed[0], i1 - needed[0]
     else:
-        pressure = mine
+        pressure = mine[needed[0]:needed[1]]
+    i0, i1 = i0 - needed[0], i1 - needed[0]
     value = 0.25 * (pressure[i0, j0] + pressure[i1, j0] + pressure[i0, j1] + pressure[i1, j1])
     return value * fine.topography.spacing**2
 

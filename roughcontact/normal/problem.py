@@ -143,14 +143,9 @@ class NormalProblem(Collective):
     def gather(self, local: np.ndarray) -> np.ndarray:
         """All footprint values of a distributed vector (this rank's nodes), on every rank: received
         in place into one array (no pickled copies)."""
-        local = np.ascontiguousarray(local)
-        if local.shape != (self.local_size,):
-            raise ValueError(f"gather takes this rank's {self.local_size} values, got shape {local.shape}")
-        flag = local.dtype == bool
-        send = local.view(np.uint8) if flag else local
-        out = np.empty(self.size, dtype=send.dtype)
-        self.comm.Allgatherv(send, [out, self.counts])
-        return out.view(bool) if flag else out
+        if np.shape(local) != (self.local_size,):
+            raise ValueError(f"gather takes this rank's {self.local_size} values, got shape {np.shape(local)}")
+        return allgather_into(self.comm, local, self.counts, (self.size,))
 
     def nearest_node(self, point) -> int:
         """Global index of the footprint node nearest to ``point`` (centroid-relative x, y; the
@@ -159,6 +154,14 @@ class NormalProblem(Collective):
         local = int(np.argmin(distance)) if distance.size else -1
         best = (float(distance[local]), self.start + local) if local >= 0 else (np.inf, self.size)
         return int(min(self.comm.allgather(best))[1])
+
+    def to_rows(self, values: np.ndarray, fill=0.0) -> np.ndarray:
+        """This rank's grid rows of a field, (row_stop − row_start, ny), from this rank's node values,
+        ``fill`` off the footprint (always a new array)."""
+        mask = self.flexibility.layout.local_mask
+        field = np.full(mask.shape, fill, dtype=np.asarray(values).dtype)
+        field[mask] = values
+        return field
 
     def to_field(self, values: np.ndarray, fill: float = 0.0, fresh: bool = False) -> np.ndarray:
         """A (nx, ny) field from footprint values (global vector), ``fill`` elsewhere; ``fresh``:
@@ -194,3 +197,14 @@ class NormalProblem(Collective):
         """Free the operator if this problem built it (collective)."""
         if self._owns_operator:
             self.flexibility.destroy()
+
+
+def allgather_into(comm, local: np.ndarray, counts, shape: tuple[int, ...]) -> np.ndarray:
+    """Every rank's ``local`` values (``counts`` of them each, in rank order) received in place into
+    one array of ``shape`` on every rank (booleans travel as bytes; no pickled copies)."""
+    local = np.ascontiguousarray(local)
+    flag = local.dtype == bool
+    send = local.view(np.uint8) if flag else local
+    out = np.empty(shape, dtype=send.dtype)
+    comm.Allgatherv(send, [out, counts])
+    return out.view(bool) if flag else out

@@ -30,8 +30,9 @@ class NormalResult:
     ``gather=False``, each rank's own grid rows ``rows`` = (start, stop) of
     them, (stop − start, ny), so that no rank holds N values (gather them with
     :func:`~.fields.gather_result`, write them with
-    :func:`~.fields.write_result`). Scalars are the same on every rank either way. Forces are the nodal resultants p̄ of Eq. 9 (N);
-    ``pressure`` is p̄ / s² (Pa). Coordinates (``centroid``) are in the grid's
+    :func:`~.fields.write_result`). Scalars are the same on every rank either
+    way, but for ``elapsed``, each rank's own wall time. Forces are the nodal resultants p̄ of Eq. 9 (N); ``pressure`` is
+    p̄ / s² (Pa). Coordinates (``centroid``) are in the grid's
     frame (node (i, j) at (i s, j s)); moments are about the footprint's
     centroid ``reference_point``.
     """

@@ -184,10 +184,8 @@ class NormalSolver(Collective):
             gaps = pb.to_field(pb.gather(gaps), np.nan, fresh=True)
             rows = None
         else:
-            layout = pb.flexibility.layout
-            rows, mask = tuple(layout.rows), layout.local_mask
-            force, contact, gaps = (_rows_field(mask, values, fill) for values, fill in
-                                    ((pressure, 0.0), (active, False), (gaps, np.nan)))
+            rows = tuple(pb.flexibility.layout.rows)
+            force, contact, gaps = pb.to_rows(pressure), pb.to_rows(active, False), pb.to_rows(gaps, np.nan)
         n_contact = int(pb.allsum(np.count_nonzero(active)))
         moments = pb.allsum(np.array([pressure.sum(), pressure @ pb.y, pressure @ pb.x]))
         load = float(moments[0])
@@ -210,12 +208,6 @@ class NormalSolver(Collective):
             no_contact=n_contact == 0, full_contact=n_contact == pb.size,
             residual_history=tuple(state.history), rows=rows, contact_nodes=n_contact)
 
-
-def _rows_field(mask: np.ndarray, values: np.ndarray, fill) -> np.ndarray:
-    """This rank's grid rows of a field: ``values`` (this rank's nodes) on the footprint ``mask``."""
-    field = np.full(mask.shape, fill, dtype=np.asarray(values).dtype)
-    field[mask] = values
-    return field
 
 
 def _pair(name: str, value) -> tuple:

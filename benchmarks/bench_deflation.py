@@ -35,6 +35,7 @@ from benchmarks.common import (
     scene_problem,
     scene_topography,
     solve_scene,
+    worker_mpi,
     write_rows,
 )
 
@@ -81,10 +82,7 @@ def coarse_spaces(nodes: np.ndarray, n: int, blocks: list[int]) -> dict[str, np.
 
 
 def worker(args) -> None:
-    import petsc4py
-
-    petsc4py.init([])
-    from mpi4py import MPI
+    MPI = worker_mpi()
 
     comm = MPI.COMM_WORLD
     rows: list[dict] = []

@@ -30,22 +30,15 @@ import numpy as np
 from benchmarks.common import (
     add_launch_arguments,
     emit,
+    proc_status,
     run_on_ranks,
     save_json,
     scene_problem,
     scene_topography,
     solve_scene,
+    worker_mpi,
     write_rows,
 )
-
-
-def status(key: str) -> int:
-    """A /proc/self/status entry in bytes (VmRSS, VmHWM)."""
-    with open("/proc/self/status") as handle:
-        for line in handle:
-            if line.startswith(key):
-                return int(line.split()[1]) * 1024
-    return 0
 
 
 def reset_peak() -> bool:
@@ -59,10 +52,7 @@ def reset_peak() -> bool:
 
 
 def worker(args) -> None:
-    import petsc4py
-
-    petsc4py.init([])
-    from mpi4py import MPI
+    MPI = worker_mpi()
 
     import roughcontact.normal  # noqa: F401 - its imports belong to the process, not to the solve
     from roughcontact.operators import operator_memory
@@ -72,12 +62,12 @@ def worker(args) -> None:
     for n in args.sizes:
         topography = scene_topography(n)
         reset = comm.allreduce(reset_peak(), op=MPI.LAND)
-        base = status("VmRSS")
+        base = proc_status("VmRSS")
         problem = scene_problem(topography, comm)
         result = solve_scene(problem, gather=args.gather)
         problem.destroy()
-        peak = comm.allreduce(status("VmHWM") - base, op=MPI.MAX)
-        held = comm.allreduce(status("VmRSS") - base, op=MPI.MAX)
+        peak = comm.allreduce(proc_status("VmHWM") - base, op=MPI.MAX)
+        held = comm.allreduce(proc_status("VmRSS") - base, op=MPI.MAX)
         nodes = n * n
         emit(comm, rows, {
             "n": n, "ranks": comm.Get_size(), "peak_bytes_per_rank": peak, "peak_per_node": peak / nodes,

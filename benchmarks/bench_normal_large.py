@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import ROOT, SCENE_PRESSURE, run_module, save_json, scene_surface
+from benchmarks.common import ROOT, SCENE_PRESSURE, proc_status, run_module, save_json, scene_surface, worker_mpi
 
 PRESSURE = SCENE_PRESSURE          # mean pressure / E*
 
@@ -58,21 +58,10 @@ def continuous_surfaces(sizes: list[int], seed: int = 2) -> dict[int, np.ndarray
     return out
 
 
-def peak_memory() -> int:
-    with open("/proc/self/status") as status:
-        for line in status:
-            if line.startswith("VmHWM"):
-                return int(line.split()[1]) * 1024
-    return 0
-
-
 # --------------------------------------------------------------------------- roughcontact
 def worker(args) -> None:
     """Under mpiexec: solve each surface file ``repeats`` times, one row per size."""
-    import petsc4py
-
-    petsc4py.init([])
-    from mpi4py import MPI
+    MPI = worker_mpi()
 
     from benchmarks.common import emit, scene_problem, solve_scene, write_rows
     from roughcontact.surfaces import Topography
@@ -94,7 +83,7 @@ def worker(args) -> None:
             problem.destroy()
             comm.Barrier()
             times.append(time.perf_counter() - t0)
-        memory = comm.allreduce(peak_memory(), op=MPI.MAX)
+        memory = comm.allreduce(proc_status("VmHWM"), op=MPI.MAX)
         emit(comm, rows, {
             "series": series, "code": "roughcontact", "n": n, "ranks": comm.Get_size(),
             "seconds": float(np.median(times)),

@@ -40,6 +40,7 @@ from benchmarks.common import (
     scene_topography,
     solve_scene,
     sweep_scene,
+    worker_mpi,
     write_rows,
 )
 
@@ -78,10 +79,7 @@ SHAPES = {"scene": {}, "full": {"fractal_dimension": 2.5}}
 
 
 def worker(args) -> None:
-    import petsc4py
-
-    petsc4py.init([])
-    from mpi4py import MPI
+    MPI = worker_mpi()
 
     from roughcontact.normal.constrained_cg import CGSettings
     from roughcontact.operators.convolution import SlabConvolution

@@ -30,15 +30,13 @@ from benchmarks.common import (
     scene_problem,
     scene_topography,
     solve_scene,
+    worker_mpi,
     write_rows,
 )
 
 
 def worker(args) -> None:
-    import petsc4py
-
-    petsc4py.init([])
-    from mpi4py import MPI
+    MPI = worker_mpi()
 
     import roughcontact.normal.solver as solver_module
 

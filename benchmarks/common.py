@@ -26,6 +26,26 @@ def mpiexec() -> str:
 ROOT = Path(__file__).resolve().parent.parent
 
 
+def proc_status(key: str) -> int:
+    """A /proc/self/status entry in bytes (VmRSS, VmHWM: the resident set and its high-water mark)."""
+    with open("/proc/self/status") as handle:
+        for line in handle:
+            if line.startswith(key):
+                return int(line.split()[1]) * 1024
+    return 0
+
+
+def worker_mpi():
+    """A worker's start under mpiexec: PETSc initialised without reading the command line (the
+    worker's own options are not PETSc's), then mpi4py's MPI module."""
+    import petsc4py
+
+    petsc4py.init([])
+    from mpi4py import MPI
+
+    return MPI
+
+
 def run_module(module: str, args: list[str], python: str | None = None) -> list[str]:
     """The command line that runs benchmark ``module`` (e.g. ``benchmarks.bench_farm``) with ``args``."""
     return [python or sys.executable, "-m", module, *args]

@@ -14,11 +14,17 @@ peak(k) = N (R + D/k) over the rank counts: R bytes per node held on every
 rank, D bytes per node divided among the ranks — the figures that size a
 larger run (docs/solvers.md). More ranks than cores is fine for memory.
 
+``--by-rows``: each rank holds only its own rows of the topography
+(:class:`roughcontact.surfaces.TopographyRows`, scattered from rank 0, which
+makes the surface and drops it), as a run too large for the whole surface on
+every rank would; a row also gives the topography's bytes on each rank and
+the resident set before the solve, from which the machine's total follows.
+
 The solve keeps its result's fields on each rank's own rows (``gather=False``,
 :mod:`roughcontact.normal.fields`), as a run too large to replicate N values on every rank
 would; ``--gather`` measures the default, whole fields on every rank (25 B per node more).
 
-    python -m benchmarks.bench_memory [--sizes 1024 2048] [--ranks 1 2 4] [--gather]
+    python -m benchmarks.bench_memory [--sizes 1024 2048] [--ranks 1 2 4] [--gather] [--by-rows]
         [--output results/bench_memory.json]
 """
 from __future__ import annotations
@@ -55,14 +61,23 @@ def worker(args) -> None:
     MPI = worker_mpi()
 
     import roughcontact.normal  # noqa: F401 - its imports belong to the process, not to the solve
+    from roughcontact.surfaces import TopographyRows
     from roughcontact.operators import operator_memory
 
     comm = MPI.COMM_WORLD
     rows: list[dict] = []
     for n in args.sizes:
-        topography = scene_topography(n)
+        if args.by_rows:
+            # rank 0 makes the surface and hands each rank its rows; the whole one is then dropped
+            whole = scene_topography(n) if comm.Get_rank() == 0 else None
+            topography = TopographyRows.scatter(whole, comm)
+            del whole
+        else:
+            topography = scene_topography(n)
+        topography_bytes = comm.allreduce(topography.heights.nbytes + topography.footprint.nbytes, op=MPI.MAX)
         reset = comm.allreduce(reset_peak(), op=MPI.LAND)
         base = proc_status("VmRSS")
+        base_max = comm.allreduce(base, op=MPI.MAX)
         problem = scene_problem(topography, comm)
         result = solve_scene(problem, gather=args.gather)
         problem.destroy()
@@ -73,7 +88,8 @@ def worker(args) -> None:
             "n": n, "ranks": comm.Get_size(), "peak_bytes_per_rank": peak, "peak_per_node": peak / nodes,
             "held_after_bytes_per_rank": held, "held_after_per_node": held / nodes,
             "estimate_bytes_per_rank": operator_memory("fft", nodes, comm.Get_size()),
-            "peak_reset": bool(reset), "gathered": args.gather, "iterations": result.linear_iterations,
+            "peak_reset": bool(reset), "gathered": args.gather, "by_rows": args.by_rows,
+            "topography_bytes_per_rank": topography_bytes, "resident_before_bytes_per_rank": base_max, "iterations": result.linear_iterations,
             "residual": result.residual})
     write_rows(comm, rows, args.json)
 
@@ -105,12 +121,15 @@ def main() -> None:
     parser.add_argument("--sizes", type=int, nargs="+", default=[1024, 2048])
     parser.add_argument("--gather", action="store_true",
                         help="whole result fields on every rank (the default of a solve) instead of rows")
+    parser.add_argument("--by-rows", action="store_true",
+                        help="each rank holds only its rows of the topography (TopographyRows, scattered "
+                             "from rank 0) instead of the whole one")
     args = parser.parse_args()
     if args.worker:
         return worker(args)
     # one process per size and rank count: memory freed by an earlier solve stays in the process
     # (the allocator keeps it), which would hide part of the next one's peak
-    extra = ["--gather"] if args.gather else []
+    extra = (["--gather"] if args.gather else []) + (["--by-rows"] if args.by_rows else [])
     rows = [row for n in args.sizes for row in run_on_ranks(__spec__.name, args.ranks, ["--sizes", str(n), *extra])]
     save_json({"rows": rows, "report": report(rows)}, args.output)
 

@@ -53,11 +53,11 @@ def worker(args) -> None:
             comm.Barrier()
             t0 = time.perf_counter()
             kernel = punch_kernel(topo.shape, topo.spacing, interface.compliance)
-            mat = assemble_flexibility(kernel, NodeLayout.build(topo.footprint, comm), comm)
+            mat = assemble_flexibility(kernel, NodeLayout.build(topo, comm), comm)
             comm.Barrier()
             assembly.append(time.perf_counter() - t0)
             mat.destroy()
-        layout = NodeLayout.build(topo.footprint, comm)
+        layout = NodeLayout.build(topo, comm)
         fills = []
         for _ in range(args.repeats):
             comm.Barrier()

@@ -141,18 +141,17 @@ def test_a_warm_start_from_rows_is_the_warm_start_from_the_whole_result(comm):
 
 
 @pytest.mark.parametrize("needed", [(0, 0), (0, 1), (3, 17), (10, 40), (0, 40), (39, 40)])
-def test_coarse_rows_are_the_whole_fields_rows(comm, needed):
+def test_a_window_of_rows_is_the_whole_fields_rows(comm, needed):
     """Any window of rows, wherever the ranks' blocks start and end, is the whole field's, bit for
     bit; each rank asks for its own window (here shifted by its rank, so windows overlap blocks of
     several ranks)."""
-    from roughcontact.normal.nested import coarse_rows
-    from roughcontact.operators.convolution import split
+    from roughcontact.surfaces.rows import rows_window, split
 
     whole = np.random.default_rng(7).standard_normal((40, 9))
     rows = split(40, comm.Get_size())[comm.Get_rank()]
     start = min(needed[0] + comm.Get_rank(), needed[1])
     window = (start, needed[1])
-    got = coarse_rows(whole[rows[0]:rows[1]].copy(), rows, window, comm)
+    got = rows_window(whole[rows[0]:rows[1]].copy(), rows, window, comm)
     np.testing.assert_array_equal(got, whole[window[0]:window[1]])
 
 

@@ -59,8 +59,9 @@ def choose_operator(topography, operator: str = "auto") -> tuple[str, str]:
         if operator not in KINDS:
             raise InputError("operator", f"must be 'auto' or one of {', '.join(KINDS)}, got {operator!r}")
         return operator, "given"
-    periodic = bool(topography.metadata.get("periodic", False)) and bool(topography.footprint.all())
-    return auto_operator(int(topography.footprint.sum()), periodic)
+    nodes = topography.footprint_nodes
+    periodic = bool(topography.metadata.get("periodic", False)) and nodes == topography.shape[0] * topography.shape[1]
+    return auto_operator(nodes, periodic)
 
 
 def choose_method(operator_kind: str, nodes: int, method: str = "auto") -> tuple[str, str]:

@@ -22,6 +22,7 @@ import numpy as np
 
 from ..errors import ConvergenceError, InputError
 from ..surfaces import coarsen
+from ..surfaces.rows import rows_window
 from .problem import NormalProblem
 from .result import NormalResult
 
@@ -62,7 +63,9 @@ class NestedStart:
         give a start (a load point outside its footprint, a failed solve: warned about)."""
         fine = self.problem
         if self.solver is None:
-            coarse_topography = coarsen(fine.topography, 2, "decimate")
+            # every other node; by rows where the fine topography is (no rank holds the whole grid)
+            coarse_topography = fine.topography.decimated(fine.comm) if fine.topography.by_rows \
+                else coarsen(fine.topography, 2, "decimate")
             self.coarse_problem = NormalProblem(coarse_topography, fine.interface, fine.comm,
                                                 operator=fine.operator_kind)
             self.solver = self.make(self.coarse_problem)
@@ -112,7 +115,7 @@ def prolong(coarse_result: NormalResult, coarse: NormalProblem, fine: NormalProb
     halfway between them, and multiplied by the fine cell area s². The
     coarse result holds each rank's own coarse rows (a ``gather=False``
     solve); a rank receives the coarse rows its fine rows fall between
-    (:func:`coarse_rows`), not the whole coarse grid.
+    (:func:`~roughcontact.surfaces.rows.rows_window`), not the whole coarse grid.
     """
     nodes = fine.nodes
     i, j = nodes[:, 0], nodes[:, 1]
@@ -122,31 +125,9 @@ def prolong(coarse_result: NormalResult, coarse: NormalProblem, fine: NormalProb
     needed = (int(i0.min()), int(i1.max()) + 1) if i.size else (0, 0)
     mine = np.where(coarse_result.contact, coarse_result.pressure, 0.0)
     if coarse_result.distributed:
-        pressure = coarse_rows(mine, coarse_result.rows, needed, coarse.comm)
+        pressure = rows_window(mine, coarse_result.rows, needed, coarse.comm)
     else:
         pressure = mine[needed[0]:needed[1]]
     i0, i1 = i0 - needed[0], i1 - needed[0]
     value = 0.25 * (pressure[i0, j0] + pressure[i1, j0] + pressure[i0, j1] + pressure[i1, j1])
     return value * fine.topography.spacing**2
-
-
-def coarse_rows(held: np.ndarray, rows: tuple[int, int], needed: tuple[int, int], comm) -> np.ndarray:
-    """Rows ``needed`` = (start, stop) of a field whose rows are split over ``comm`` in rank order,
-    this rank holding ``held`` = rows ``rows``: one Alltoallv, each rank sending each other the
-    part of its rows the other needs."""
-    width = held.shape[1]
-    everyone_needs = comm.allgather(needed)
-    everyone_holds = comm.allgather(tuple(rows))
-
-    def overlap(a, b) -> tuple[int, int]:
-        start, stop = max(a[0], b[0]), min(a[1], b[1])
-        return (start, stop) if stop > start else (start, start)
-
-    sends = [overlap(rows, other) for other in everyone_needs]
-    receives = [overlap(other, needed) for other in everyone_holds]
-    send = np.concatenate([held[a - rows[0]:b - rows[0]].ravel() for a, b in sends])
-    out = np.empty((needed[1] - needed[0], width))
-    counts = [(b - a) * width for a, b in receives]
-    # the holders tile the grid in rank order, so what arrives, in rank order, is the needed rows in order
-    comm.Alltoallv([send, [(b - a) * width for a, b in sends]], [out, counts])
-    return out

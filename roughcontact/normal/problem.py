@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..collective import Collective
+from ..errors import InputError
 from ..materials import Interface
 from ..surfaces.topography import Topography
 
@@ -29,7 +30,10 @@ class NormalProblem(Collective):
     Parameters
     ----------
     topography
-        Composite topography Δh on a square grid with its footprint.
+        Composite topography Δh on a square grid with its footprint: a
+        :class:`~roughcontact.surfaces.Topography` (whole on every rank) or a
+        :class:`~roughcontact.surfaces.TopographyRows` (each rank its own rows; solves with
+        ``gather=False`` then hold nothing of size N on any rank).
     interface
         The two materials.
     comm
@@ -73,8 +77,7 @@ class NormalProblem(Collective):
         self.centroid = index_sums * s / self.size
         self.x = self.nodes[:, 0] * s - self.centroid[0]
         self.y = self.nodes[:, 1] * s - self.centroid[1]
-        r0, r1 = layout.rows
-        heights = topography.heights[r0:r1][layout.local_mask]
+        heights = topography.local_rows(layout.rows)[0][layout.local_mask]
         top, negative_bottom = self.allmax(np.array([heights.max(initial=-np.inf),
                                                      -heights.min(initial=np.inf)]))
         self.gap0 = top - heights
@@ -163,15 +166,18 @@ class NormalProblem(Collective):
         field[mask] = values
         return field
 
-    def to_field(self, values: np.ndarray, fill: float = 0.0, fresh: bool = False) -> np.ndarray:
-        """A (nx, ny) field from footprint values (global vector), ``fill`` elsewhere; ``fresh``:
-        ``values`` is an array the caller no longer uses, returned reshaped when the footprint is the
-        whole grid (no second copy of N values)."""
-        if fresh and self.flexibility.layout.whole_grid:
-            return np.asarray(values).reshape(self.topography.shape)
+    def to_field(self, values: np.ndarray, fill: float = 0.0) -> np.ndarray:
+        """A (nx, ny) field from footprint values (global vector), ``fill`` elsewhere."""
+        self.require_whole_topography("a whole field")
         field = np.full(self.topography.shape, fill, dtype=np.asarray(values).dtype)
         field[self.topography.footprint] = values
         return field
+
+    def require_whole_topography(self, what: str) -> None:
+        """Raise a one-line InputError when the topography is held by rows and ``what`` needs all of it."""
+        if self.topography.by_rows:
+            raise InputError("topography", f"is held by rows (TopographyRows); {what} needs the whole "
+                                           "Topography on every rank")
 
     def load_point_inside(self, point: np.ndarray) -> bool:
         """Whether ``point`` (centroid-relative x, y) lies in the footprint's convex hull."""

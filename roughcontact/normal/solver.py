@@ -25,6 +25,7 @@ from ..checks import require_finite as _finite
 from ..collective import Collective
 from ..errors import InputError
 from ..threads import single_blas_thread
+from .fields import gather_result
 from .problem import NormalProblem
 from .result import ContactState, NormalResult
 
@@ -52,19 +53,16 @@ class NormalSolver(Collective):
         """Start the next solve from ``result`` (a solution of the same problem):
         its contact set, forces and rigid motion, e.g. a corrective solve from the actual one."""
         self._check_alive()
-        pb = self.problem
+        layout = self.problem.flexibility.layout
+        (r0, r1), mask = layout.rows, layout.local_mask
         if result.distributed:
-            layout = pb.flexibility.layout
-            if tuple(result.rows) != tuple(layout.rows) or result.force.shape != layout.local_mask.shape:
+            if tuple(result.rows) != tuple(layout.rows) or result.force.shape != mask.shape:
                 raise InputError("result", f"holds grid rows {result.rows[0]}:{result.rows[1]}, this rank "
-                                           f"owns {layout.rows[0]}:{layout.rows[1]}: it was solved on "
-                                           "another problem or communicator")
-            mask = layout.local_mask
-            self.start_from(result.force[mask], np.array([result.closure, *result.rotation]), result.contact[mask])
-            return
-        footprint = pb.topography.footprint
-        self.start_from(result.force[footprint][pb.start:pb.stop], np.array([result.closure, *result.rotation]),
-                        result.contact[footprint][pb.start:pb.stop])
+                                           f"owns {r0}:{r1}: it was solved on another problem or communicator")
+            force, contact = result.force, result.contact
+        else:                                          # this rank's rows of the whole fields
+            force, contact = result.force[r0:r1], result.contact[r0:r1]
+        self.start_from(force[mask], np.array([result.closure, *result.rotation]), contact[mask])
 
     def start_from(self, forces: np.ndarray, rigid: np.ndarray, active: np.ndarray | None = None) -> None:
         """Start the next solve from nodal forces on this rank's nodes (cut at 0), the rigid
@@ -177,15 +175,8 @@ class NormalSolver(Collective):
         self.rigid = rigid.copy()
         s = pb.topography.spacing
         gaps = np.where(active, 0.0, gap)
-        if gather:
-            # each field straight from its gathered vector: N values per field on every rank, no more
-            force = pb.to_field(pb.gather(pressure), fresh=True)
-            contact = pb.to_field(pb.gather(active), False, fresh=True)
-            gaps = pb.to_field(pb.gather(gaps), np.nan, fresh=True)
-            rows = None
-        else:
-            rows = tuple(pb.flexibility.layout.rows)
-            force, contact, gaps = pb.to_rows(pressure), pb.to_rows(active, False), pb.to_rows(gaps, np.nan)
+        rows = tuple(pb.flexibility.layout.rows)
+        force, contact, gaps = pb.to_rows(pressure), pb.to_rows(active, False), pb.to_rows(gaps, np.nan)
         n_contact = int(pb.allsum(np.count_nonzero(active)))
         moments = pb.allsum(np.array([pressure.sum(), pressure @ pb.y, pressure @ pb.x]))
         load = float(moments[0])
@@ -193,7 +184,7 @@ class NormalSolver(Collective):
             centroid = (pb.centroid[0] + moments[2] / load, pb.centroid[1] + moments[1] / load)
         else:
             centroid = (float("nan"), float("nan"))
-        return NormalResult(
+        result = NormalResult(
             force=force, pressure=force / s**2, contact=contact, gap=gaps,
             load=load, moments=(float(moments[1]), float(moments[2])),
             centroid=(float(centroid[0]), float(centroid[1])),
@@ -207,6 +198,8 @@ class NormalSolver(Collective):
             coarse_iterations=int(getattr(self, "coarse_iterations", 0)),
             no_contact=n_contact == 0, full_contact=n_contact == pb.size,
             residual_history=tuple(state.history), rows=rows, contact_nodes=n_contact)
+        # whole fields: each rank's rows received in place (N values per field on every rank, no more)
+        return gather_result(result, pb) if gather else result
 
 
 

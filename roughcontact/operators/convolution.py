@@ -41,12 +41,7 @@ import os
 import numpy as np
 import scipy.fft as sfft
 
-
-def split(n: int, parts: int) -> list[tuple[int, int]]:
-    """``n`` items in ``parts`` contiguous blocks, the first ``n % parts`` one longer."""
-    counts = [n // parts + (1 if k < n % parts else 0) for k in range(parts)]
-    starts = np.concatenate([[0], np.cumsum(counts)]).astype(int)
-    return [(int(starts[k]), int(starts[k + 1])) for k in range(parts)]
+from ..surfaces.rows import split
 
 
 def padded_lengths(shape: tuple[int, int], periodic: bool) -> tuple[int, int]:

@@ -64,12 +64,11 @@ class Flexibility:
         self.kind = kind
         self.comm = comm
         self.periodic = kind == "fft-periodic"
-        footprint = topography.footprint
-        if self.periodic and not footprint.all():
+        self.layout = NodeLayout.build(topography, comm)
+        self.shape = self.layout.shape
+        if self.periodic and not self.layout.whole_grid:
             raise InputError("operator", "'fft-periodic' needs the whole grid as footprint (one period "
                                          "of a periodic surface); use 'fft' for a bounded footprint")
-        self.layout = NodeLayout.build(footprint, comm)
-        self.shape = footprint.shape
         self.spacing = topography.spacing
         self.compliance = interface.compliance
         self.convolution = SlabConvolution(self.shape, comm, periodic=self.periodic, workers=workers)
@@ -90,7 +89,9 @@ class Flexibility:
         if kind == "dense":
             from .dense import assemble_flexibility
 
-            self.mat = assemble_flexibility(self.table, self.layout, comm)
+            # the assembly reads every node's position: a footprint held by rows is gathered (N bytes,
+            # on the small grids the dense operator is for)
+            self.mat = assemble_flexibility(self.table, self.layout.with_footprint(comm), comm)
         else:
             from .fft import full_operator
 
@@ -103,8 +104,8 @@ class Flexibility:
         self.kind = f"user ({mat.getType()})"
         self.comm = comm
         self.periodic = False
-        self.layout = NodeLayout.build(topography.footprint, comm)
-        self.shape = topography.footprint.shape
+        self.layout = NodeLayout.build(topography, comm)
+        self.shape = self.layout.shape
         self.spacing = topography.spacing
         self.convolution = self._table = self._offsets = self._preconditioner = None
         self._slab = None

@@ -10,11 +10,12 @@ layout, so results do not depend on which operator solved them.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
 
+from ..errors import InputError
 from .convolution import split
 
 
@@ -24,39 +25,58 @@ class NodeLayout:
 
     Attributes
     ----------
-    footprint
-        (nx, ny) boolean mask of all nodes.
+    shape
+        (nx, ny) of the grid.
+    local_mask
+        The footprint on this rank's rows, (rows, ny).
     rows
         (row_start, row_stop): the grid rows of this rank.
     start, stop
         Global indices of the owned unknowns.
     size
         Number of footprint nodes (all ranks).
+    footprint
+        The (nx, ny) mask of all nodes, or None where the topography is held by rows
+        (:class:`~roughcontact.surfaces.TopographyRows`): only the dense operator's assembly
+        needs it, and gathers it (:meth:`with_footprint`).
     """
 
-    footprint: np.ndarray
+    shape: tuple[int, int]
+    local_mask: np.ndarray
     rows: tuple[int, int]
     start: int
     stop: int
     size: int
+    footprint: np.ndarray | None = None
 
     @classmethod
-    def build(cls, footprint: np.ndarray, comm) -> "NodeLayout":
-        footprint = np.asarray(footprint, dtype=bool)
-        r0, r1 = split(footprint.shape[0], comm.Get_size())[comm.Get_rank()]
-        per_row = footprint.sum(axis=1)
+    def build(cls, topography, comm) -> "NodeLayout":
+        """The layout of a :class:`~roughcontact.surfaces.Topography` (whole on every rank) or a
+        :class:`~roughcontact.surfaces.TopographyRows` (this rank's rows) on ``comm``."""
+        shape = tuple(topography.shape)
+        r0, r1 = split(shape[0], comm.Get_size())[comm.Get_rank()]
+        if topography.by_rows and not comm.allreduce(tuple(topography.rows) == (r0, r1), op=_land()):
+            raise InputError("topography", f"holds rows split over another number of ranks than the "
+                                           f"communicator's {comm.Get_size()}")
+        per_row = np.asarray(topography.row_counts)
         start = int(per_row[:r0].sum())
-        return cls(footprint=footprint, rows=(r0, r1), start=start,
-                   stop=start + int(per_row[r0:r1].sum()), size=int(per_row.sum()))
+        return cls(shape=shape, local_mask=np.asarray(topography.local_rows((r0, r1))[1], dtype=bool),
+                   rows=(r0, r1), start=start, stop=start + int(per_row[r0:r1].sum()), size=int(per_row.sum()),
+                   footprint=None if topography.by_rows else np.asarray(topography.footprint, dtype=bool))
+
+    def with_footprint(self, comm) -> "NodeLayout":
+        """The same layout holding the whole footprint (collective: gathered from every rank's rows)."""
+        if self.footprint is not None:
+            return self
+        blocks = comm.allgather(self.rows)
+        counts = [(b - a) * self.shape[1] for a, b in blocks]
+        whole = np.empty(self.shape, dtype=np.uint8)
+        comm.Allgatherv(np.ascontiguousarray(self.local_mask).view(np.uint8), [whole, counts])
+        return replace(self, footprint=whole.view(bool))
 
     @property
     def local_size(self) -> int:
         return self.stop - self.start
-
-    @cached_property
-    def local_mask(self) -> np.ndarray:
-        """The footprint on this rank's rows, (rows, ny)."""
-        return self.footprint[self.rows[0]:self.rows[1]]
 
     @cached_property
     def whole_rows(self) -> bool:
@@ -66,7 +86,7 @@ class NodeLayout:
     @cached_property
     def whole_grid(self) -> bool:
         """Every node of the grid is in the footprint."""
-        return self.size == self.footprint.size
+        return self.size == self.shape[0] * self.shape[1]
 
     @cached_property
     def positions(self) -> np.ndarray:
@@ -98,3 +118,9 @@ class NodeLayout:
         nodes = np.argwhere(self.local_mask).astype(np.int32)
         nodes[:, 0] += self.rows[0]
         return nodes
+
+
+def _land():
+    from mpi4py import MPI
+
+    return MPI.LAND

@@ -20,11 +20,12 @@ from .fractal_dimension import (
 from .io import read_topography, write_topography
 from .midpoint import midpoint_surface
 from .multiresolution import coarsen, multiresolution
+from .rows import TopographyRows
 from .statistics import RadialPSD, StructureFunction, radial_psd, rms_height, rms_slope, structure_function
 from .topography import Topography
 
 __all__ = [
-    "Topography", "disc", "rectangle",
+    "Topography", "TopographyRows", "disc", "rectangle",
     "midpoint_surface", "fourier_surface",
     "read_topography", "write_topography", "detrend",
     "composite_topography", "mated_composite",

@@ -13,7 +13,7 @@ Conventions (used throughout the package)
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -42,6 +42,9 @@ class Topography:
     spacing: float
     footprint: np.ndarray | None = None
     metadata: dict[str, Any] = field(default_factory=dict)
+
+    #: whole on every rank (a :class:`~.rows.TopographyRows` holds one rank's rows)
+    by_rows: ClassVar[bool] = False
 
     def __post_init__(self):
         heights = np.asarray(self.heights, dtype=float)
@@ -111,6 +114,20 @@ class Topography:
     def y(self) -> np.ndarray:
         """Node y coordinates (m), axis 1."""
         return np.arange(self.shape[1]) * self.spacing
+
+    @property
+    def footprint_nodes(self) -> int:
+        """Nodes of the footprint."""
+        return int(self.footprint.sum())
+
+    @property
+    def row_counts(self) -> np.ndarray:
+        """(nx,) footprint nodes of every grid row."""
+        return self.footprint.sum(axis=1, dtype=np.int64)
+
+    def local_rows(self, rows: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+        """(heights, footprint) of grid rows ``rows`` = (start, stop) (views)."""
+        return self.heights[rows[0]:rows[1]], self.footprint[rows[0]:rows[1]]
 
     @property
     def nominal_area(self) -> float:

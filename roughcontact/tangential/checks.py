@@ -68,6 +68,7 @@ def check_normal(problem: NormalProblem, normal) -> None:
     if not isinstance(normal, NormalResult):
         raise InputError("normal", f"must be a NormalResult, got {type(normal).__name__}")
     normal.require_whole("normal")
+    problem.require_whole_topography("a tangential solve")
     if normal.force.shape != problem.topography.shape:
         raise InputError("normal", f"its fields have shape {normal.force.shape}, the problem's grid "
                                    f"{problem.topography.shape}: it was solved on another problem")

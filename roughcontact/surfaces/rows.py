@@ -1,0 +1,200 @@
+"""A topography held by rows: each rank keeps only its own block of grid rows.
+
+A :class:`~.topography.Topography` holds every height on every rank: 9 bytes
+per node (the heights and the footprint mask), the largest array a
+distributed solve with ``gather=False`` (:mod:`roughcontact.normal.fields`)
+still replicates. At 8192² that is 0.6 GB on each rank. A
+:class:`TopographyRows` holds rank r's grid rows only — the rows
+[start, stop) = :func:`split` (nx, ranks)[r] that the node layout and the
+FFT operator give that rank (:mod:`roughcontact.operators.layout`) — and,
+for the layout, the number of footprint nodes of every grid row (8 bytes a
+row, not a node).
+
+Make one from a whole topography on one rank (:meth:`TopographyRows.scatter`:
+the root reads or generates the surface, every rank receives its rows), or
+from rows a program made itself (:meth:`TopographyRows.from_rows`). A
+:class:`~roughcontact.normal.NormalProblem` accepts it wherever it accepts a
+Topography; its solves with ``gather=False`` then hold nothing of size N
+on any rank. What needs the whole surface on every rank (tangential solves,
+the dense operator's assembly) says so in one line, or gathers it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ..checks import require_finite_positive
+from ..errors import InputError
+
+
+def split(n: int, parts: int) -> list[tuple[int, int]]:
+    """``n`` items in ``parts`` contiguous blocks, the first ``n % parts`` one longer."""
+    counts = [n // parts + (1 if k < n % parts else 0) for k in range(parts)]
+    starts = np.concatenate([[0], np.cumsum(counts)]).astype(int)
+    return [(int(starts[k]), int(starts[k + 1])) for k in range(parts)]
+
+
+@dataclass(frozen=True)
+class TopographyRows:
+    """This rank's grid rows of a topography on a square grid (see the module).
+
+    Attributes
+    ----------
+    heights
+        (stop − start, ny) composite heights Δh of rows [start, stop) in metres.
+    spacing
+        Grid spacing s (m).
+    shape
+        (nx, ny) of the whole grid.
+    rows
+        (start, stop): this rank's grid rows, :func:`split` (nx, ranks)[rank].
+    row_counts
+        (nx,) footprint nodes of every grid row (the same on every rank).
+    footprint
+        (stop − start, ny) mask of the nominal contact region on these rows.
+    metadata
+        Free-form provenance, as a Topography's.
+
+    Build it with :meth:`scatter` or :meth:`from_rows` (collective checks,
+    the same error on every rank), not directly.
+    """
+
+    heights: np.ndarray
+    spacing: float
+    shape: tuple[int, int]
+    rows: tuple[int, int]
+    row_counts: np.ndarray
+    footprint: np.ndarray
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    #: one rank's rows (a :class:`~.topography.Topography` is whole on every rank)
+    by_rows: ClassVar[bool] = True
+
+    @classmethod
+    def from_rows(cls, heights, spacing, shape, comm, footprint=None, metadata=None) -> "TopographyRows":
+        """This rank's rows (``heights``: rows :func:`split` (nx, ranks)[rank] of a grid of
+        ``shape``; ``footprint`` the same rows' mask, default all). Collective: every rank
+        checks its rows and all raise the same :class:`~roughcontact.errors.InputError`
+        if any rank's are wrong."""
+        error, parts = None, None
+        try:
+            parts = _checked(heights, spacing, shape, comm, footprint)
+        except InputError as exc:
+            error = (comm.Get_rank(), exc.parameter, str(exc)[len(exc.parameter) + 2:])
+        errors = [e for e in comm.allgather(error) if e is not None]
+        if errors:
+            rank, parameter, message = errors[0]
+            raise InputError(parameter, f"{message} (rank {rank})")
+        heights, spacing, shape, rows, footprint = parts
+        heights.setflags(write=False)
+        footprint.setflags(write=False)
+        row_counts = np.concatenate(comm.allgather(footprint.sum(axis=1, dtype=np.int64)))
+        if row_counts.sum() == 0:
+            raise InputError("footprint", "is empty: no node belongs to the nominal contact region")
+        return cls(heights, spacing, shape, rows, row_counts, footprint, dict(metadata or {}))
+
+    @classmethod
+    def scatter(cls, topography, comm, root: int = 0) -> "TopographyRows":
+        """Every rank's rows of ``topography``, a :class:`~.topography.Topography` given on rank
+        ``root`` (the others pass None): one Scatterv of the heights and one of the mask, so no
+        other rank ever holds the whole surface."""
+        rank, size = comm.Get_rank(), comm.Get_size()
+        header = None
+        if rank == root:
+            header = (topography.shape, topography.spacing, dict(topography.metadata))
+        shape, spacing, metadata = comm.bcast(header, root=root)
+        blocks = split(shape[0], size)
+        start, stop = blocks[rank]
+        counts = [(b - a) * shape[1] for a, b in blocks]
+        heights = np.empty((stop - start, shape[1]))
+        mask = np.empty((stop - start, shape[1]), dtype=np.uint8)
+        whole_h = np.ascontiguousarray(topography.heights) if rank == root else None
+        whole_m = np.ascontiguousarray(topography.footprint).view(np.uint8) if rank == root else None
+        comm.Scatterv([whole_h, counts] if rank == root else None, heights, root=root)
+        comm.Scatterv([whole_m, counts] if rank == root else None, mask, root=root)
+        return cls.from_rows(heights, spacing, shape, comm, mask.view(bool), metadata)
+
+    @property
+    def footprint_nodes(self) -> int:
+        """Nodes of the footprint on the whole grid."""
+        return int(self.row_counts.sum())
+
+    @property
+    def nominal_area(self) -> float:
+        """Apparent area A0 of the footprint, one s² per node (m²)."""
+        return self.footprint_nodes * self.spacing**2
+
+    def local_rows(self, rows: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+        """(heights, footprint) of grid rows ``rows``: this rank's own, the only ones it holds."""
+        if tuple(rows) != tuple(self.rows):
+            raise InputError("topography", f"holds grid rows {self.rows[0]}:{self.rows[1]}, not "
+                                           f"{rows[0]}:{rows[1]}: it was split for another communicator")
+        return self.heights, self.footprint
+
+    def decimated(self, comm) -> "TopographyRows":
+        """Every other node in both directions (spacing 2s; nodes (2i, 2j)), held by rows on
+        ``comm`` as :func:`split` gives them for the coarse grid: what
+        :func:`~.multiresolution.coarsen` (topography, 2, "decimate") gives, without the whole grid."""
+        nx, ny = self.shape
+        coarse_shape = ((nx + 1) // 2, (ny + 1) // 2)
+        start, stop = self.rows
+        first = start + (start % 2)                     # the first even grid row held here
+        held = ((start + 1) // 2, (stop + 1) // 2)      # the coarse rows made from them
+        needed = split(coarse_shape[0], comm.Get_size())[comm.Get_rank()]
+        heights = rows_window(np.ascontiguousarray(self.heights[first - start::2, ::2]), held, needed, comm)
+        mask = rows_window(np.ascontiguousarray(self.footprint[first - start::2, ::2]).view(np.uint8),
+                           held, needed, comm).view(bool)
+        meta = dict(self.metadata)
+        meta["coarsening"] = dict(method="decimate", factor=2, origin=(0.0, 0.0),
+                                  dropped_nodes=((nx - 1) % 2, (ny - 1) % 2), fine_spacing=self.spacing)
+        return TopographyRows.from_rows(heights, 2 * self.spacing, coarse_shape, comm, mask, meta)
+
+
+def rows_window(held: np.ndarray, rows: tuple[int, int], needed: tuple[int, int], comm) -> np.ndarray:
+    """Rows ``needed`` = (start, stop) of a field whose rows are split over ``comm`` in rank order,
+    this rank holding ``held`` = rows ``rows``: one Alltoallv, each rank sending each other the
+    part of its rows the other needs (any dtype; the result has ``held``'s)."""
+    width = held.shape[1]
+    everyone_needs = comm.allgather(tuple(needed))
+    everyone_holds = comm.allgather(tuple(rows))
+
+    def overlap(a, b) -> tuple[int, int]:
+        start, stop = max(a[0], b[0]), min(a[1], b[1])
+        return (start, stop) if stop > start else (start, start)
+
+    sends = [overlap(rows, other) for other in everyone_needs]
+    receives = [overlap(other, needed) for other in everyone_holds]
+    parts = [held[a - rows[0]:b - rows[0]].ravel() for a, b in sends]
+    send = np.concatenate(parts) if parts else np.empty(0, held.dtype)
+    out = np.empty((needed[1] - needed[0], width), dtype=held.dtype)
+    counts = [(b - a) * width for a, b in receives]
+    # the holders tile the grid in rank order, so what arrives, in rank order, is the needed rows in order
+    comm.Alltoallv([send, [(b - a) * width for a, b in sends]], [out, counts])
+    return out
+
+
+def _checked(heights, spacing, shape, comm, footprint):
+    """The validated parts of one rank's rows (raises InputError on this rank)."""
+    try:
+        nx, ny = (int(v) for v in shape)
+    except (TypeError, ValueError):
+        raise InputError("shape", f"must be a pair (nx, ny), got {shape!r}") from None
+    if nx < 1 or ny < 1:
+        raise InputError("shape", f"must be positive, got {(nx, ny)}")
+    spacing = require_finite_positive("spacing", spacing)
+    rows = split(nx, comm.Get_size())[comm.Get_rank()]
+    heights = np.array(heights, dtype=float)
+    expected = (rows[1] - rows[0], ny)
+    if heights.shape != expected:
+        raise InputError("heights", f"holds shape {heights.shape}; this rank's rows {rows[0]}:{rows[1]} of a "
+                                    f"{nx} x {ny} grid are {expected}")
+    footprint = np.ones(expected, dtype=bool) if footprint is None else np.array(footprint, dtype=bool)
+    if footprint.shape != expected:
+        raise InputError("footprint", f"shape {footprint.shape} differs from heights {expected}")
+    bad = int((~np.isfinite(heights) & footprint).sum())
+    if bad:
+        raise InputError("heights", f"{bad} node(s) of the footprint are NaN or infinite; mask missing "
+                                    "data out of the footprint or fill it before solving")
+    return heights, spacing, (nx, ny), rows, footprint

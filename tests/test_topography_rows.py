@@ -1,0 +1,132 @@
+"""A topography held by rows (each rank its own grid rows) is the whole topography cut into the
+ranks' rows: the same layout, the same coarse grids, the same solve bit for bit; what needs the
+whole surface on every rank says so in one line."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from roughcontact.errors import InputError
+from roughcontact.materials import Interface, Material
+from roughcontact.normal import NormalProblem, make_solver
+from roughcontact.surfaces import Topography, TopographyRows, coarsen
+from roughcontact.surfaces.rows import split
+from roughcontact.tangential import CattaneoSolver
+
+ROCK = Interface(Material(30e9, 0.25))
+FIELDS = ("force", "pressure", "contact", "gap")
+
+
+def disc_topography(n: int, seed: int = 5) -> Topography:
+    """Random heights on a disc-shaped footprint (rows of unequal length, NaN outside)."""
+    rng = np.random.default_rng(seed)
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    footprint = (i - 0.45 * n) ** 2 + (j - 0.55 * n) ** 2 <= (0.4 * n) ** 2
+    heights = np.where(footprint, rng.standard_normal((n, n)) * 1e-6, np.nan)
+    return Topography(heights, 1e-4, footprint=footprint, metadata={"seed": seed})
+
+
+def scattered(topography: Topography, comm) -> TopographyRows:
+    """Rank 0 hands its topography out; the other ranks pass None (they need not have it)."""
+    return TopographyRows.scatter(topography if comm.Get_rank() == 0 else None, comm)
+
+
+@pytest.mark.parametrize("n", [1, 7, 40])
+def test_scatter_gives_each_rank_its_rows_of_the_whole_topography(comm, n):
+    """Heights and mask bit for bit, rows as the operators split them, the per-row footprint counts
+    and the nominal area of the whole topography."""
+    whole = disc_topography(n) if n > 1 else Topography(np.ones((1, 1)), 1e-4)
+    rows = scattered(whole, comm)
+    start, stop = split(n, comm.Get_size())[comm.Get_rank()]
+    assert rows.rows == (start, stop) and rows.shape == whole.shape and rows.spacing == whole.spacing
+    np.testing.assert_array_equal(rows.footprint, whole.footprint[start:stop])
+    np.testing.assert_array_equal(rows.heights[rows.footprint], whole.heights[start:stop][whole.footprint[start:stop]])
+    np.testing.assert_array_equal(rows.row_counts, whole.row_counts)
+    assert rows.nominal_area == whole.nominal_area and rows.footprint_nodes == whole.footprint_nodes
+    assert rows.metadata == whole.metadata
+
+
+@pytest.mark.parametrize("n", [40, 41, 130])
+def test_decimated_rows_are_the_rows_of_the_decimated_topography(comm, n):
+    """Every other node, redistributed to the coarse grid's rows (each rank's coarse rows come from
+    fine rows that other ranks may hold): coarsen(topography, 2, "decimate") cut into rows, bit for
+    bit, for even and odd n."""
+    whole = disc_topography(n)
+    coarse = coarsen(whole, 2, "decimate")
+    rows = scattered(whole, comm).decimated(comm)
+    start, stop = split(coarse.shape[0], comm.Get_size())[comm.Get_rank()]
+    assert rows.rows == (start, stop) and rows.shape == coarse.shape and rows.spacing == coarse.spacing
+    np.testing.assert_array_equal(rows.footprint, coarse.footprint[start:stop])
+    np.testing.assert_array_equal(rows.heights[rows.footprint], coarse.heights[start:stop][coarse.footprint[start:stop]])
+    np.testing.assert_array_equal(rows.row_counts, coarse.row_counts)
+    assert rows.metadata["coarsening"] == coarse.metadata["coarsening"]
+
+
+@pytest.mark.parametrize("operator,n", [("fft", 192), ("dense", 30)])
+def test_a_solve_on_rows_is_the_solve_on_the_whole_topography(comm, operator, n):
+    """The same nodes on the same ranks and, at 192² (a disc of 18 530 nodes > 4 × 64², so the fft
+    solve starts from a coarse grid decimated by rows), the same coarse start: forces, contact set,
+    gap and every scalar bit for bit, by rows and gathered. The dense operator gathers the
+    footprint's mask for its assembly (N bytes, on the small grids it is chosen for)."""
+    whole_topography = disc_topography(n)
+    load = 2e-4 * whole_topography.nominal_area * ROCK.contact_modulus
+    results = []
+    for topography in (whole_topography, scattered(whole_topography, comm)):
+        with NormalProblem(topography, ROCK, comm, operator=operator) as problem, \
+                make_solver(problem, "cg") as solver:
+            results.append((solver.solve_load(load, rotation=(0.0, 0.0), gather=False),
+                            solver.solve_load(1.5 * load, rotation=(0.0, 0.0))))
+    (rows_a, gathered_a), (rows_b, gathered_b) = results
+    assert rows_a.coarse_iterations == rows_b.coarse_iterations
+    if operator == "fft":
+        assert rows_a.coarse_iterations > 0          # the coarse start ran, on the decimated rows
+    for a, b in ((rows_a, rows_b), (gathered_a, gathered_b)):
+        assert a.rows == b.rows
+        for name in FIELDS:
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+        for name in ("load", "closure", "moments", "centroid", "contact_area", "linear_iterations", "residual"):
+            assert getattr(a, name) == getattr(b, name), name
+
+
+def test_rows_with_a_bad_block_raise_the_same_error_on_every_rank(comm):
+    """A rank whose heights are not its rows (or carry NaN on the footprint) makes every rank raise
+    the same one-line InputError, naming that rank: none waits in a collective call."""
+    n, rank = 12, comm.Get_rank()
+    start, stop = split(n, comm.Get_size())[rank]
+    good = np.zeros((stop - start, n))
+    last = comm.Get_size() - 1
+    heights = np.zeros((stop - start + 1, n)) if rank == last else good
+    with pytest.raises(InputError, match=rf"^heights: holds shape .* \(rank {last}\)$"):
+        TopographyRows.from_rows(heights, 1e-4, (n, n), comm)
+    heights = good.copy()
+    if rank == last:
+        heights[0, 0] = np.nan
+    with pytest.raises(InputError, match=rf"^heights: 1 node\(s\) of the footprint are NaN .* \(rank {last}\)$"):
+        TopographyRows.from_rows(heights, 1e-4, (n, n), comm)
+    mask = np.ones_like(good, dtype=bool)
+    mask[0, 0] = rank != last
+    rows = TopographyRows.from_rows(heights, 1e-4, (n, n), comm, footprint=mask)   # NaN off the footprint
+    assert rows.footprint_nodes == n * n - 1
+
+
+def test_rows_of_another_communicator_are_refused_in_one_line(comm):
+    """Rows split over this communicator, handed to a problem on a communicator of another size."""
+    if comm.Get_size() == 1:
+        pytest.skip("needs two ranks: one rank's rows are the whole grid on any communicator of one")
+    rows = scattered(disc_topography(20), comm)
+    with pytest.raises(InputError, match="^topography: holds rows split over another number of ranks"):
+        NormalProblem(rows, ROCK, MPI.COMM_SELF, operator="fft")
+
+
+def test_what_needs_the_whole_topography_says_so(comm):
+    """A tangential solve, or a whole field from node values, on a topography held by rows."""
+    with NormalProblem(scattered(disc_topography(40), comm), ROCK, comm, operator="fft") as problem:
+        with make_solver(problem, "cg") as solver:
+            normal = solver.solve_load(1e-4 * problem.topography.nominal_area * ROCK.contact_modulus,
+                                       rotation=(0.0, 0.0))
+        with pytest.raises(InputError, match=r"^topography: is held by rows \(TopographyRows\); a tangential "
+                                             r"solve needs the whole Topography on every rank$"):
+            CattaneoSolver(problem, normal, 0.5)
+        with pytest.raises(InputError, match="^topography: is held by rows"):
+            problem.to_field(np.zeros(problem.local_size))

@@ -7,6 +7,7 @@ interface constants (A, γ, β of Eqs. 4a, 4b, 5). Write them with
 """
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Sequence
 
 import numpy as np
@@ -76,6 +77,13 @@ def stored_fields(table: dict, fields: str) -> list[str]:
     return [name for name, spec in table.items() if spec[-1] in keep]
 
 
+def keep_fields(result: NormalResult, fields: str) -> NormalResult:
+    """``result`` with only the fields stored at level ``fields`` (:data:`FIELDS`), the others None:
+    what a sweep keeps of each solve once the whole result has served (its scalars all kept)."""
+    names = stored_fields(FIELD_TABLE, fields)
+    return replace(result, **{name: None for name in FIELD_TABLE if name not in names})
+
+
 def normal_sweep_dataset(results: Sequence[NormalResult], spacing: float, dim: str = "step",
                          coordinate: tuple | None = None, fields: str = "all",
                          attrs: dict | None = None) -> xr.Dataset:
@@ -99,7 +107,7 @@ def normal_sweep_dataset(results: Sequence[NormalResult], spacing: float, dim: s
         data.pop(dim, None)
         coords = {dim: (dim, np.asarray(coordinate[0])[:n], dict(coordinate[1]))}
     if names and n:
-        coords.update(grid_coords(results[0].force.shape, spacing))
+        coords.update(grid_coords(FIELD_TABLE[names[0]][0](results[0]).shape, spacing))
     for name in names if n else ():
         get, dtype, units, long_name, _ = FIELD_TABLE[name]
         data[name] = ((dim, "x", "y"), np.stack([get(r) for r in results]).astype(dtype),

@@ -426,3 +426,30 @@ def test_a_batch_log_gets_a_progress_line_every_interval():
     silent = io.StringIO()
     Progress("quiet", total=10, resumed=0, enabled=False, stream=silent, interval=0.01).close()
     assert silent.getvalue() == ""
+
+
+@pytest.mark.parametrize("fields", ["none", "contact", "force"])
+def test_a_task_keeps_only_the_fields_it_stores_and_writes_the_same_numbers(fields):
+    """Each load's whole result serves its tangential sweep, fretting cycle and energy first, then
+    only the fields stored at ``fields`` are kept (the others None): every variable of the task's
+    file is the one the same task writes keeping every field, bit for bit (wall times aside)."""
+    from roughcontact.datasets import FIELD_TABLE, stored_fields
+
+    everything = load_study(tiny()).tasks()[1]
+    kept = load_study(tiny(output={"fields": fields})).tasks()[1]
+    whole, slim = solve_task(everything, MPI.COMM_SELF), solve_task(kept, MPI.COMM_SELF)
+    assert whole.error is None and slim.error is None and len(slim.normal) == 3
+    names = stored_fields(FIELD_TABLE, fields)
+    for result, reference in zip(slim.normal, whole.normal):
+        for name in FIELD_TABLE:
+            if name in names:
+                np.testing.assert_array_equal(getattr(result, name), getattr(reference, name))
+            else:
+                assert getattr(result, name) is None, name
+    mine, theirs = task_groups(slim), task_groups(whole)
+    assert mine.keys() == theirs.keys() == {"/", "tangential", "fretting"}
+    for group, ds in mine.items():
+        for var in ds.data_vars:
+            if not timing(var):
+                np.testing.assert_array_equal(ds[var].values, theirs[group][var].values, err_msg=f"{group}/{var}")
+    assert set(FIELD_TABLE) - set(names) <= set(theirs["/"].data_vars) - set(mine["/"].data_vars)

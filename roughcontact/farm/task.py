@@ -190,8 +190,10 @@ def open_normal_solver(topography: Topography, interface: Interface, comm, optio
 class TaskOutcome:
     """What solving a task produced, on every rank of its communicator.
 
-    ``normal`` holds the solved loads in order; after a failure (``error``),
-    the loads solved before it. ``loads`` are the normal loads P (N) of
+    ``normal`` holds the solved loads in order, each with only the fields the
+    task stores (``task.fields``; the others None: the whole result served the
+    load's tangential solves first); after a failure (``error``), the loads
+    solved before it. ``loads`` are the normal loads P (N) of
     those solutions: the imposed ones under load control, the solved ones
     under closure control. ``sweeps`` and ``cycles`` are keyed by the index
     of the load they were run at, as are ``fretting_maps``.
@@ -225,11 +227,10 @@ def solve_task(task: Task, comm, timeout: float | None = None) -> TaskOutcome:
     at the first load boundary past it (:func:`_check_deadline`): the solve of a
     load is never cut short, so every number kept is a converged one.
     """
-    from ..tangential import fretting_cycle, fretting_map, incipient_sliding_energy, tangential_loads, tangential_sweep
+    from ..datasets import keep_fields
 
     t0 = time.perf_counter()
     outcome = TaskOutcome(task=task, ranks=comm.Get_size())
-    tangential = task.tangential
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -244,29 +245,38 @@ def solve_task(task: Task, comm, timeout: float | None = None) -> TaskOutcome:
                     outcome.normal.append(normal)
                     load = normal.load if task.load_dim == "closure" else float(control) * scale
                     outcome.loads.append(load)
-                    if task.fretting is not None and i in task.fretting.at:
-                        outcome.fretting_maps[i] = fretting_map(
-                            problem, normal, task.fretting.friction, task.fretting.amplitudes,
-                            task.fretting.steps, method=task.normal.method)
-                    if tangential is None:
-                        continue
-                    f = tangential.friction
-                    outcome.incipient_energy.append(
-                        incipient_sliding_energy(problem, normal, f) if load > 0.0 else 0.0)
-                    if i not in tangential.at:
-                        continue
-                    outcome.sweeps[i] = tangential_sweep(problem, normal, f,
-                                                         tangential=tangential_loads(f, load, tangential.steps),
-                                                         method=task.normal.method)
-                    if tangential.fretting_amplitude is not None:
-                        outcome.cycles[i] = fretting_cycle(
-                            problem, normal, f, tangential.fretting_amplitude * f * load,
-                            tangential.fretting_steps, method=task.normal.method)
+                    _tangential_at(task, i, problem, normal, load, outcome)
+                    # what the task stores of this load, once the whole result has served: every field
+                    # kept was 25 B/node per load on every rank (8 loads at 2048²: 0.8 GB a rank)
+                    outcome.normal[-1] = keep_fields(normal, task.fields)
         except RoughContactError as exc:
             outcome.error = f"{type(exc).__name__}: {exc}"
     outcome.warnings = tuple(dict.fromkeys(f"{w.category.__name__}: {w.message}" for w in caught))
     outcome.elapsed = time.perf_counter() - t0
     return outcome
+
+
+def _tangential_at(task: Task, i: int, problem, normal, load: float, outcome: TaskOutcome) -> None:
+    """What the task asks at its load ``i`` besides the normal solve: the fretting map, the
+    incipient-sliding energy, the tangential sweep and the fretting cycle (into ``outcome``)."""
+    from ..tangential import fretting_cycle, fretting_map, incipient_sliding_energy, tangential_loads, tangential_sweep
+
+    tangential = task.tangential
+    if task.fretting is not None and i in task.fretting.at:
+        outcome.fretting_maps[i] = fretting_map(
+            problem, normal, task.fretting.friction, task.fretting.amplitudes,
+            task.fretting.steps, method=task.normal.method)
+    if tangential is None:
+        return
+    f = tangential.friction
+    outcome.incipient_energy.append(incipient_sliding_energy(problem, normal, f) if load > 0.0 else 0.0)
+    if i not in tangential.at:
+        return
+    outcome.sweeps[i] = tangential_sweep(problem, normal, f, tangential=tangential_loads(f, load, tangential.steps),
+                                         method=task.normal.method)
+    if tangential.fretting_amplitude is not None:
+        outcome.cycles[i] = fretting_cycle(problem, normal, f, tangential.fretting_amplitude * f * load,
+                                           tangential.fretting_steps, method=task.normal.method)
 
 
 def _check_deadline(comm, start: float, timeout: float | None, done: int, loads: int) -> None:

@@ -61,8 +61,8 @@ def worker(args) -> None:
     MPI = worker_mpi()
 
     import roughcontact.normal  # noqa: F401 - its imports belong to the process, not to the solve
-    from roughcontact.surfaces import TopographyRows
     from roughcontact.operators import operator_memory
+    from roughcontact.surfaces import TopographyRows
 
     comm = MPI.COMM_WORLD
     rows: list[dict] = []

@@ -165,3 +165,26 @@ def test_a_solve_on_rows_holds_memory_that_divides_over_the_ranks(comm):
     shared = comm.allreduce(peak(comm), op=MPI.MAX)
     ranks = comm.Get_size()
     assert shared <= (1.0 / ranks + 0.02) * alone, (shared / alone, ranks)
+
+
+def test_each_rank_reads_its_rows_of_a_topography_file(comm, shared_dir):
+    """A file of write_topography read by rows is the topography handed out from rank 0, bit for
+    bit (heights, mask, spacing, metadata); a missing or foreign file raises one line everywhere."""
+    from roughcontact.surfaces import write_topography
+
+    whole = disc_topography(37)
+    path = shared_dir / "surface.nc"
+    if comm.Get_rank() == 0:
+        write_topography(whole, path)
+        with open(shared_dir / "other.nc", "wb") as handle:
+            handle.write(b"not HDF5")
+    comm.Barrier()
+    read, handed = TopographyRows.read(path, comm), scattered(whole, comm)
+    assert (read.shape, read.rows, read.spacing) == (handed.shape, handed.rows, handed.spacing)
+    np.testing.assert_array_equal(read.footprint, handed.footprint)
+    np.testing.assert_array_equal(read.heights[read.footprint], handed.heights[handed.footprint])
+    np.testing.assert_array_equal(read.row_counts, handed.row_counts)
+    assert read.metadata == {"seed": 5, "source": "surface.nc"}
+    for name in ("missing.nc", "other.nc"):
+        with pytest.raises(InputError, match=rf"^path: {name}: not a topography file of write_topography"):
+            TopographyRows.read(shared_dir / name, comm)

@@ -11,8 +11,10 @@ for the layout, the number of footprint nodes of every grid row (8 bytes a
 row, not a node).
 
 Make one from a whole topography on one rank (:meth:`TopographyRows.scatter`:
-the root reads or generates the surface, every rank receives its rows), or
-from rows a program made itself (:meth:`TopographyRows.from_rows`). A
+the root reads or generates the surface, every rank receives its rows), from
+a file of :func:`~.io.write_topography` of which each rank reads its own
+rows (:meth:`TopographyRows.read`), or from rows a program made itself
+(:meth:`TopographyRows.from_rows`). A
 :class:`~roughcontact.normal.NormalProblem` accepts it wherever it accepts a
 Topography; its solves with ``gather=False`` then hold nothing of size N
 on any rank. What needs the whole surface on every rank (tangential solves,
@@ -115,6 +117,40 @@ class TopographyRows:
         comm.Scatterv([whole_h, counts] if rank == root else None, heights, root=root)
         comm.Scatterv([whole_m, counts] if rank == root else None, mask, root=root)
         return cls.from_rows(heights, spacing, shape, comm, mask.view(bool), metadata)
+
+    @classmethod
+    def read(cls, path, comm) -> "TopographyRows":
+        """Every rank reads its own rows of a file of :func:`~.io.write_topography` (heights, the
+        footprint, the exact spacing and the metadata): no rank reads or holds the whole surface.
+        Collective: a file that cannot be read raises the same one-line InputError everywhere.
+        Other formats: read on one rank (:func:`~.io.read_topography`) and :meth:`scatter`."""
+        import json
+        from pathlib import Path
+
+        import h5py
+
+        path = Path(path)
+        header, error = None, None
+        try:
+            with h5py.File(path, "r") as handle:
+                heights = handle["heights"]
+                if heights.ndim != 2 or "spacing" not in handle.attrs:
+                    raise KeyError("a 2-D 'heights' and a 'spacing' attribute")
+                shape = tuple(int(v) for v in heights.shape)
+                start, stop = split(shape[0], comm.Get_size())[comm.Get_rank()]
+                mine = np.asarray(heights[start:stop], dtype=float)
+                mask = (np.asarray(handle["footprint"][start:stop]) != 0) if "footprint" in handle \
+                    else np.ones(mine.shape, dtype=bool)
+                stored = handle.attrs.get("roughcontact_metadata", "{}")
+                header = (shape, float(np.ravel(handle.attrs["spacing"])[0]),
+                          json.loads(stored.decode() if isinstance(stored, bytes) else stored))
+        except (OSError, KeyError, ValueError, TypeError, IndexError) as exc:
+            error = f"{path.name}: not a topography file of write_topography ({type(exc).__name__}: {exc})"
+        errors = [e for e in comm.allgather(error) if e is not None]
+        if errors:
+            raise InputError("path", errors[0])
+        shape, spacing, metadata = header
+        return cls.from_rows(mine, spacing, shape, comm, mask, dict(metadata, source=path.name))
 
     @property
     def footprint_nodes(self) -> int:

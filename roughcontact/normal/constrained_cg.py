@@ -221,14 +221,18 @@ class ConstrainedCGSolver(NormalSolver):
         previous = None                                # gᵀz of the last iteration, None: restart
         working = np.zeros(0, dtype=np.intp)           # the free set of the last iteration
         free_mask = np.zeros(forces.size, dtype=bool)  # the same set as a mask (set changes by XOR)
+        # the node vectors of every iteration, made once: fresh temporaries of N values (and index
+        # arrays of changing sizes between them) fragmented the heap of each rank
+        last_mask, changed, in_contact = (np.zeros(forces.size, dtype=bool) for _ in range(3))
+        gap = np.empty_like(forces)
         history: list[float] = []
         since_refresh = 0
         best, since_best = np.inf, 0                   # the lowest residual, iterations since it
         since_restart, changed_since = 0, False
         for iteration in range(1, settings.max_iterations + 1):
-            in_contact = forces > 0.0
+            np.greater(forces, 0.0, out=in_contact)
             contact = np.flatnonzero(in_contact)
-            gap = displacement - w
+            np.subtract(displacement, w, out=gap)
             approach = _mean(pb, gap[contact]) if load is not None else 0.0
             gap -= approach                            # the deformed gap, zero on S at the solution
             # max(|g| on S, max(−g) off S): −g ≤ |g| on S, so the minimum may run over all nodes
@@ -252,10 +256,11 @@ class ConstrainedCGSolver(NormalSolver):
                 since_refresh, previous, single, since_best = 0, None, False, 0
                 continue
             # masks, not sorted-set operations: union1d's sort cost more than the FFT products at 512²
-            last, last_mask = working, free_mask
-            free_mask = in_contact | (gap < 0.0)
+            last, last_mask, free_mask = working, free_mask, last_mask
+            np.logical_or(in_contact, np.less(gap, 0.0, out=free_mask), out=free_mask)
             working = np.flatnonzero(free_mask)
-            counts = pb.allsum(np.array([np.count_nonzero(free_mask != last_mask), working.size]))
+            counts = pb.allsum(np.array([np.count_nonzero(np.not_equal(free_mask, last_mask, out=changed)),
+                                         working.size]))
             changed_since = changed_since or counts[0] > 0
             since_restart += 1
             if counts[0] > settings.restart * counts[1] or (changed_since and since_restart >= settings.renew):
@@ -301,7 +306,8 @@ class ConstrainedCGSolver(NormalSolver):
                 # H (p − α d + c) = H p − α H d + H c: after a cut, one more product, of the small
                 # correction c, whose single-precision error shrinks with it like the step's (the
                 # sum of c's kernel columns, when c had at most 4 nodes, saved nothing measurable)
-                displacement -= step * product
+                product *= step                        # a fresh array: scaled in place, not copied
+                displacement -= product
                 if cut:
                     displacement += pb.displacement(clipped, single)
                 displacement *= scale                  # H is linear: a uniform rescaling is exact

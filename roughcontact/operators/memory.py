@@ -28,8 +28,9 @@ own, the high-water mark reset after the surface):
   C-ordered rows its assembly fills (the same memory, handed to PETSc).
 
 Measured with the constrained CG (mixed precision, nested start, fields by rows), peak bytes
-per node per rank on 1, 2, 4 ranks: 1024² 310, 162, 88; 2048² 298, 169, 87; 4096² 285, 149,
-78 — a fit N (R + D/ranks) gives R = 10–22, D = 275–296 (docs/solvers.md). The constants bound
+per node per rank on 1, 2, 4 ranks: 1024² 309, 168, 91; 2048² 298, 161, 85; 4096² 286, 150,
+78 — a fit N (R + D/ranks) gives R = 10–21, D = 276–289 (docs/solvers.md); 8192² on 4 ranks
+with the surface by rows, 74. The constants bound
 every one of these from above, and the same solve with the default, gathered result (1024²:
 309, 162, 102; 2048²: 298, 168, 102). ``"fft-periodic"`` makes its whole
 Ewald-summed table once at set-up (8 B/node, transient). Explicit blocks of H_SS (small contact

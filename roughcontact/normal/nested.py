@@ -117,17 +117,20 @@ def prolong(coarse_result: NormalResult, coarse: NormalProblem, fine: NormalProb
     solve); a rank receives the coarse rows its fine rows fall between
     (:func:`~roughcontact.surfaces.rows.rows_window`), not the whole coarse grid.
     """
-    nodes = fine.nodes
-    i, j = nodes[:, 0], nodes[:, 1]
+    layout = fine.flexibility.layout
+    (r0, r1), mask = layout.rows, layout.local_mask
     cx, cy = coarse.topography.shape
-    i0, j0 = np.minimum(i // 2, cx - 1), np.minimum(j // 2, cy - 1)
-    i1, j1 = np.minimum(i0 + (i % 2), cx - 1), np.minimum(j0 + (j % 2), cy - 1)
-    needed = (int(i0.min()), int(i1.max()) + 1) if i.size else (0, 0)
+    # the coarse rows and columns each fine row and column lies between (the same twice on a coarse one)
+    rows, columns = np.arange(r0, r1), np.arange(fine.topography.shape[1])
+    i0, j0 = np.minimum(rows // 2, cx - 1), np.minimum(columns // 2, cy - 1)
+    i1, j1 = np.minimum(i0 + rows % 2, cx - 1), np.minimum(j0 + columns % 2, cy - 1)
+    needed = (int(i0[0]), int(i1[-1]) + 1) if rows.size else (0, 0)
     mine = np.where(coarse_result.contact, coarse_result.pressure, 0.0)
     if coarse_result.distributed:
         pressure = rows_window(mine, coarse_result.rows, needed, coarse.comm)
     else:
         pressure = mine[needed[0]:needed[1]]
-    i0, i1 = i0 - needed[0], i1 - needed[0]
-    value = 0.25 * (pressure[i0, j0] + pressure[i1, j0] + pressure[i0, j1] + pressure[i1, j1])
+    # bilinear, one direction at a time: whole rows of the grid, not one gather per node and corner
+    along_x = pressure[i0 - needed[0]] + pressure[i1 - needed[0]]
+    value = 0.25 * (along_x[:, j0] + along_x[:, j1])[mask]
     return value * fine.topography.spacing**2

@@ -227,6 +227,48 @@ def test_free_rotation_at_a_few_contact_nodes(comm, levels, dimension, seed):
     problem.destroy()
 
 
+@pytest.mark.parametrize("levels, factor, load", [(8, 4, 30.0), (9, 8, 60.0), (11, 32, 100.0)])
+def test_free_rotation_does_not_cycle_on_decimated_fractal_surfaces(comm, levels, factor, load):
+    """65² grids decimated from finer midpoint surfaces (what the coarsest level of a nested start
+    solves), 7–13 nodes in contact, rotation free. The Newton on θ alternated between a step accepted
+    by Armijo on Φ (the load residual rising) and one accepted because the load residual halved (Φ
+    rising) for all its 50 steps — relative load residual 0.73 on the third case, the coarsest level
+    of a 2049² farm task, whose every finer level then started from independent punches (2 of 150
+    such cases failed: 2 dimensions × 15 seeds × 5 loads). Now the state is the equilibrium (Σ p = P
+    and zero moments about the centroid within load_tol) and the active set's."""
+    from roughcontact.surfaces import coarsen, midpoint_surface
+
+    rock = Interface(Material(20e9, 0.0), Material(20e9, 0.0))
+    topo = coarsen(midpoint_surface(levels, 2.2, spacing=1e-4, rms_height=1e-5, seed=1), factor, "decimate")
+    problem = NormalProblem(topo, rock, comm, operator="dense")
+    result = solve(problem, "cg", lambda s: s.solve_load(load))
+    reference = solve(problem, "ksp", lambda s: s.solve_load(load))
+    assert 4 <= result.contact.sum() <= 16
+    assert result.load == pytest.approx(load, rel=1e-8)
+    assert np.abs(result.moments).max() <= 1e-8 * load * problem.extent
+    assert_same_state(reference, result)
+    problem.destroy()
+
+
+@pytest.mark.slow
+def test_free_rotation_converges_on_every_coarse_level_like_surface(comm):
+    """The map behind the previous test: 65² grids decimated by 4 from 257² and by 8 from 513²
+    midpoint surfaces (Δ = 2.2, seeds 1–15), five loads from 30 to 200 N (3 to ~60 nodes), rotation
+    free, each from a cold start: every one converges to zero moments (2 of the 150 cycled before
+    Φ was kept from rising); about 10 s."""
+    from roughcontact.surfaces import coarsen, midpoint_surface
+
+    rock = Interface(Material(20e9, 0.0), Material(20e9, 0.0))
+    for levels, factor in ((8, 4), (9, 8)):
+        for seed in range(1, 16):
+            topo = coarsen(midpoint_surface(levels, 2.2, spacing=1e-4, rms_height=1e-5, seed=seed), factor,
+                           "decimate")
+            with NormalProblem(topo, rock, comm, operator="dense") as problem:
+                for load in (30.0, 60.0, 100.0, 150.0, 200.0):
+                    result = solve(problem, "cg", lambda s: s.solve_load(load))
+                    assert np.abs(result.moments).max() <= 1e-8 * load * problem.extent, (levels, seed, load)
+
+
 @pytest.mark.parametrize("control", sorted(CONTROLS))
 def test_mixed_precision_reaches_the_double_state(comm, control):
     """Single-precision direction products and preconditioner (the default) reach the state of

@@ -32,6 +32,9 @@ from ..errors import ConvergenceError
 from .problem import NormalProblem
 from .result import ContactState
 
+#: relative round-off of Φ = ½ p*ᵀ w − rᵀL: a rise below it is no rise
+PHI_ROUNDOFF = 1e-10
+
 Evaluate = Callable[[np.ndarray], tuple[ContactState, np.ndarray]]
 Stiffness = Callable[[np.ndarray], tuple[np.ndarray, int]]
 
@@ -91,9 +94,11 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
             iterations += t_state.outer
             linear += t_state.linear
             # Armijo on Φ; near the solution Φ's decrease is below its round-off, and a
-            # decrease of the load residual itself is accepted instead
+            # decrease of the load residual itself is accepted instead — only while Φ does not
+            # rise above its round-off: the two criteria otherwise take turns and cycle
             if (t_phi <= phi + 1e-4 * alpha * slope
-                    or np.max(np.abs(t_force) / scale) <= 0.5 * error or alpha < 1e-6):
+                    or (np.max(np.abs(t_force) / scale) <= 0.5 * error and t_phi <= phi + PHI_ROUNDOFF * abs(phi))
+                    or alpha < 1e-6):
                 break
             alpha *= 0.5
         if alpha < 1e-6:

@@ -74,7 +74,9 @@ def worker(args) -> None:
             del whole
         else:
             topography = scene_topography(n)
-        topography_bytes = comm.allreduce(topography.heights.nbytes + topography.footprint.nbytes, op=MPI.MAX)
+        held = (topography.local_heights, topography.local_footprint) if args.by_rows else \
+            (topography.heights, topography.footprint)
+        topography_bytes = comm.allreduce(sum(a.nbytes for a in held), op=MPI.MAX)
         reset = comm.allreduce(reset_peak(), op=MPI.LAND)
         base = proc_status("VmRSS")
         base_max = comm.allreduce(base, op=MPI.MAX)

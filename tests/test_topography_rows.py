@@ -40,8 +40,8 @@ def test_scatter_gives_each_rank_its_rows_of_the_whole_topography(comm, n):
     rows = scattered(whole, comm)
     start, stop = split(n, comm.Get_size())[comm.Get_rank()]
     assert rows.rows == (start, stop) and rows.shape == whole.shape and rows.spacing == whole.spacing
-    np.testing.assert_array_equal(rows.footprint, whole.footprint[start:stop])
-    np.testing.assert_array_equal(rows.heights[rows.footprint], whole.heights[start:stop][whole.footprint[start:stop]])
+    np.testing.assert_array_equal(rows.local_footprint, whole.footprint[start:stop])
+    np.testing.assert_array_equal(rows.local_heights[rows.local_footprint], whole.heights[start:stop][whole.footprint[start:stop]])
     np.testing.assert_array_equal(rows.row_counts, whole.row_counts)
     assert rows.nominal_area == whole.nominal_area and rows.footprint_nodes == whole.footprint_nodes
     assert rows.metadata == whole.metadata
@@ -57,8 +57,8 @@ def test_decimated_rows_are_the_rows_of_the_decimated_topography(comm, n):
     rows = scattered(whole, comm).decimated(comm)
     start, stop = split(coarse.shape[0], comm.Get_size())[comm.Get_rank()]
     assert rows.rows == (start, stop) and rows.shape == coarse.shape and rows.spacing == coarse.spacing
-    np.testing.assert_array_equal(rows.footprint, coarse.footprint[start:stop])
-    np.testing.assert_array_equal(rows.heights[rows.footprint], coarse.heights[start:stop][coarse.footprint[start:stop]])
+    np.testing.assert_array_equal(rows.local_footprint, coarse.footprint[start:stop])
+    np.testing.assert_array_equal(rows.local_heights[rows.local_footprint], coarse.heights[start:stop][coarse.footprint[start:stop]])
     np.testing.assert_array_equal(rows.row_counts, coarse.row_counts)
     assert rows.metadata["coarsening"] == coarse.metadata["coarsening"]
 
@@ -108,6 +108,30 @@ def test_rows_with_a_bad_block_raise_the_same_error_on_every_rank(comm):
     mask[0, 0] = rank != last
     rows = TopographyRows.from_rows(heights, 1e-4, (n, n), comm, footprint=mask)   # NaN off the footprint
     assert rows.footprint_nodes == n * n - 1
+
+
+def test_unreadable_rows_or_a_root_without_a_topography_raise_on_every_rank(comm):
+    """Heights numpy cannot read as numbers on one rank, or a root handing out something that is not
+    a Topography: every rank raises the same one-line InputError (none is left in a collective)."""
+    n, rank = 12, comm.Get_rank()
+    start, stop = split(n, comm.Get_size())[rank]
+    last = comm.Get_size() - 1
+    heights = [["a"] * n] * (stop - start) if rank == last else np.zeros((stop - start, n))
+    with pytest.raises(InputError, match=rf"^heights: cannot be read as numbers .* \(rank {last}\)$"):
+        TopographyRows.from_rows(heights, 1e-4, (n, n), comm)
+    with pytest.raises(InputError, match=r"^topography: must be a Topography on rank 0, got ndarray$"):
+        TopographyRows.scatter(np.zeros((n, n)) if rank == 0 else None, comm)
+
+
+def test_a_whole_result_of_another_grid_is_refused_as_a_warm_start(comm):
+    """warm_start slices each rank's rows out of a whole result: one of another grid is refused on
+    every rank in one line, instead of rows that happen to fit on some ranks."""
+    with NormalProblem(disc_topography(40), ROCK, comm, operator="fft") as other, make_solver(other, "cg") as solver:
+        foreign = solver.solve_load(1e-4 * other.topography.nominal_area * ROCK.contact_modulus, rotation=(0.0, 0.0))
+    with NormalProblem(disc_topography(36), ROCK, comm, operator="fft") as problem, \
+            make_solver(problem, "cg") as solver:
+        with pytest.raises(InputError, match=r"^result: holds a 40 x 40 grid, this problem's is 36 x 36"):
+            solver.warm_start(foreign)
 
 
 def test_rows_of_another_communicator_are_refused_in_one_line(comm):
@@ -170,7 +194,7 @@ def test_a_solve_on_rows_holds_memory_that_divides_over_the_ranks(comm):
 def test_each_rank_reads_its_rows_of_a_topography_file(comm, shared_dir):
     """A file of write_topography read by rows is the topography handed out from rank 0, bit for
     bit (heights, mask, spacing, metadata); a missing or foreign file raises one line everywhere."""
-    from roughcontact.surfaces import write_topography
+    from roughcontact.surfaces import read_topography, write_topography
 
     whole = disc_topography(37)
     path = shared_dir / "surface.nc"
@@ -181,10 +205,12 @@ def test_each_rank_reads_its_rows_of_a_topography_file(comm, shared_dir):
     comm.Barrier()
     read, handed = TopographyRows.read(path, comm), scattered(whole, comm)
     assert (read.shape, read.rows, read.spacing) == (handed.shape, handed.rows, handed.spacing)
-    np.testing.assert_array_equal(read.footprint, handed.footprint)
-    np.testing.assert_array_equal(read.heights[read.footprint], handed.heights[handed.footprint])
+    np.testing.assert_array_equal(read.local_footprint, handed.local_footprint)
+    np.testing.assert_array_equal(read.local_heights[read.local_footprint], handed.local_heights[handed.local_footprint])
     np.testing.assert_array_equal(read.row_counts, handed.row_counts)
-    assert read.metadata == {"seed": 5, "source": "surface.nc"}
+    assert read.metadata["stored_metadata"] == {"seed": 5}
+    expected = read_topography(path).metadata             # the whole reader's, but the file's hash
+    assert read.metadata == {k: v for k, v in expected.items() if k != "sha256"}
     for name in ("missing.nc", "other.nc"):
         with pytest.raises(InputError, match=rf"^path: {name}: not a topography file of write_topography"):
             TopographyRows.read(shared_dir / name, comm)

@@ -245,10 +245,14 @@ def solve_task(task: Task, comm, timeout: float | None = None) -> TaskOutcome:
                     outcome.normal.append(normal)
                     load = normal.load if task.load_dim == "closure" else float(control) * scale
                     outcome.loads.append(load)
-                    _tangential_at(task, i, problem, normal, load, outcome)
-                    # what the task stores of this load, once the whole result has served: every field
-                    # kept was 25 B/node per load on every rank (8 loads at 2048²: 0.8 GB a rank)
-                    outcome.normal[-1] = keep_fields(normal, task.fields)
+                    try:
+                        _tangential_at(task, i, problem, normal, load, outcome)
+                    finally:
+                        # what the task stores of this load, once the whole result has served: every
+                        # field kept was 25 B/node per load on every rank (8 loads at 2048²: 0.8 GB a
+                        # rank); nothing else refers to the whole result during the next load's solve
+                        outcome.normal[-1] = keep_fields(normal, task.fields)
+                        del normal
         except RoughContactError as exc:
             outcome.error = f"{type(exc).__name__}: {exc}"
     outcome.warnings = tuple(dict.fromkeys(f"{w.category.__name__}: {w.message}" for w in caught))

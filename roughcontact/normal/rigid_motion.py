@@ -112,8 +112,8 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
                           "rotations of Eq. 7: fix the rotation (rotation=(0, 0)) or check the load point")
             raise ConvergenceError(
                 "LOAD_CONTROL_LINE_SEARCH",
-                f"Newton step {newton} on the rigid motion found no decrease of the complementary energy "
-                f"nor of the load residual ({error:.3e}); {advice}")
+                f"Newton step {newton} on the rigid motion found no decrease of the complementary energy, "
+                f"nor a halving of the load residual ({error:.3e}) that kept it from rising; {advice}")
         # the trust region follows Newton's own step: the log-P damping is not a sign of distrust
         moved = float(np.max(np.abs(alpha * newton_step) / units))
         radius = 4.0 * radius if alpha == 1.0 and moved >= 0.99 * radius else max(moved, 1e-3)

@@ -61,6 +61,10 @@ class NormalSolver(Collective):
                                            f"owns {r0}:{r1}: it was solved on another problem or communicator")
             force, contact = result.force, result.contact
         else:                                          # this rank's rows of the whole fields
+            if result.force.shape != layout.shape:     # whole fields: the same answer on every rank
+                raise InputError("result", f"holds a {result.force.shape[0]} x {result.force.shape[1]} grid, "
+                                           f"this problem's is {layout.shape[0]} x {layout.shape[1]}: it was "
+                                           "solved on another problem")
             force, contact = result.force[r0:r1], result.contact[r0:r1]
         self.start_from(force[mask], np.array([result.closure, *result.rotation]), contact[mask])
 

@@ -17,8 +17,10 @@ rows (:meth:`TopographyRows.read`), or from rows a program made itself
 (:meth:`TopographyRows.from_rows`). A
 :class:`~roughcontact.normal.NormalProblem` accepts it wherever it accepts a
 Topography; its solves with ``gather=False`` then hold nothing of size N
-on any rank. What needs the whole surface on every rank (tangential solves,
-the dense operator's assembly) says so in one line, or gathers it.
+on any rank with the FFT operator (the periodic one makes its Ewald table
+whole once at set-up; the dense one, for small grids, gathers the mask). A
+tangential solve, which needs the whole surface on every rank, says so in
+one line.
 """
 from __future__ import annotations
 
@@ -44,7 +46,7 @@ class TopographyRows:
 
     Attributes
     ----------
-    heights
+    local_heights
         (stop − start, ny) composite heights Δh of rows [start, stop) in metres.
     spacing
         Grid spacing s (m).
@@ -54,21 +56,25 @@ class TopographyRows:
         (start, stop): this rank's grid rows, :func:`split` (nx, ranks)[rank].
     row_counts
         (nx,) footprint nodes of every grid row (the same on every rank).
-    footprint
+    local_footprint
         (stop − start, ny) mask of the nominal contact region on these rows.
     metadata
         Free-form provenance, as a Topography's.
 
-    Build it with :meth:`scatter` or :meth:`from_rows` (collective checks,
-    the same error on every rank), not directly.
+    Build it with :meth:`scatter`, :meth:`read` or :meth:`from_rows`
+    (collective checks, the same error on every rank), not directly. The
+    rows are named ``local_heights`` and ``local_footprint``, not ``heights``
+    and ``footprint``: a function of the whole surface (statistics,
+    coarsening, writing) handed one by mistake stops at the missing name
+    instead of computing on one rank's rows.
     """
 
-    heights: np.ndarray
+    local_heights: np.ndarray
     spacing: float
     shape: tuple[int, int]
     rows: tuple[int, int]
     row_counts: np.ndarray
-    footprint: np.ndarray
+    local_footprint: np.ndarray
     metadata: dict[str, Any] = field(default_factory=dict)
 
     #: one rank's rows (a :class:`~.topography.Topography` is whole on every rank)
@@ -85,6 +91,8 @@ class TopographyRows:
             parts = _checked(heights, spacing, shape, comm, footprint)
         except InputError as exc:
             error = (comm.Get_rank(), exc.parameter, str(exc)[len(exc.parameter) + 2:])
+        except (TypeError, ValueError) as exc:      # arrays numpy cannot read as numbers: same path
+            error = (comm.Get_rank(), "heights", f"cannot be read as numbers ({exc})")
         errors = [e for e in comm.allgather(error) if e is not None]
         if errors:
             rank, parameter, message = errors[0]
@@ -102,11 +110,18 @@ class TopographyRows:
         """Every rank's rows of ``topography``, a :class:`~.topography.Topography` given on rank
         ``root`` (the others pass None): one Scatterv of the heights and one of the mask, so no
         other rank ever holds the whole surface."""
+        from .topography import Topography
+
         rank, size = comm.Get_rank(), comm.Get_size()
         header = None
         if rank == root:
-            header = (topography.shape, topography.spacing, dict(topography.metadata))
-        shape, spacing, metadata = comm.bcast(header, root=root)
+            header = (topography.shape, topography.spacing, dict(topography.metadata)) \
+                if isinstance(topography, Topography) else \
+                f"must be a Topography on rank {root}, got {type(topography).__name__}"
+        header = comm.bcast(header, root=root)
+        if isinstance(header, str):                 # every rank raises, none waits in the Scatterv
+            raise InputError("topography", header)
+        shape, spacing, metadata = header
         blocks = split(shape[0], size)
         start, stop = blocks[rank]
         counts = [(b - a) * shape[1] for a, b in blocks]
@@ -142,15 +157,22 @@ class TopographyRows:
                 mask = (np.asarray(handle["footprint"][start:stop]) != 0) if "footprint" in handle \
                     else np.ones(mine.shape, dtype=bool)
                 stored = handle.attrs.get("roughcontact_metadata", "{}")
-                header = (shape, float(np.ravel(handle.attrs["spacing"])[0]),
-                          json.loads(stored.decode() if isinstance(stored, bytes) else stored))
+                stored = json.loads(stored.decode() if isinstance(stored, bytes) else stored)
+                units = {"length": "m", "height": "m"}
+                # read_topography's metadata of the same file, less the file's sha256 (every rank
+                # would read all of it): the stored metadata under its own key, not the surface's
+                spacing = float(np.ravel(handle.attrs["spacing"])[0])
+                # (NaN on the footprint is refused, as read_topography's default missing="reject" does)
+                header = (shape, spacing, dict(source=path.name, format="netcdf", reader="roughcontact",
+                                               units=units, stored_metadata=stored,
+                                               pixel_size=(spacing, spacing), missing_points=0))
         except (OSError, KeyError, ValueError, TypeError, IndexError) as exc:
             error = f"{path.name}: not a topography file of write_topography ({type(exc).__name__}: {exc})"
         errors = [e for e in comm.allgather(error) if e is not None]
         if errors:
             raise InputError("path", errors[0])
         shape, spacing, metadata = header
-        return cls.from_rows(mine, spacing, shape, comm, mask, dict(metadata, source=path.name))
+        return cls.from_rows(mine, spacing, shape, comm, mask, metadata)
 
     @property
     def footprint_nodes(self) -> int:
@@ -167,7 +189,7 @@ class TopographyRows:
         if tuple(rows) != tuple(self.rows):
             raise InputError("topography", f"holds grid rows {self.rows[0]}:{self.rows[1]}, not "
                                            f"{rows[0]}:{rows[1]}: it was split for another communicator")
-        return self.heights, self.footprint
+        return self.local_heights, self.local_footprint
 
     def decimated(self, comm) -> "TopographyRows":
         """Every other node in both directions (spacing 2s; nodes (2i, 2j)), held by rows on
@@ -179,8 +201,8 @@ class TopographyRows:
         first = start + (start % 2)                     # the first even grid row held here
         held = ((start + 1) // 2, (stop + 1) // 2)      # the coarse rows made from them
         needed = split(coarse_shape[0], comm.Get_size())[comm.Get_rank()]
-        heights = rows_window(np.ascontiguousarray(self.heights[first - start::2, ::2]), held, needed, comm)
-        mask = rows_window(np.ascontiguousarray(self.footprint[first - start::2, ::2]).view(np.uint8),
+        heights = rows_window(np.ascontiguousarray(self.local_heights[first - start::2, ::2]), held, needed, comm)
+        mask = rows_window(np.ascontiguousarray(self.local_footprint[first - start::2, ::2]).view(np.uint8),
                            held, needed, comm).view(bool)
         meta = dict(self.metadata)
         meta["coarsening"] = dict(method="decimate", factor=2, origin=(0.0, 0.0),

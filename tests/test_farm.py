@@ -453,3 +453,47 @@ def test_a_task_keeps_only_the_fields_it_stores_and_writes_the_same_numbers(fiel
             if not timing(var):
                 np.testing.assert_array_equal(ds[var].values, theirs[group][var].values, err_msg=f"{group}/{var}")
     assert set(FIELD_TABLE) - set(names) <= set(theirs["/"].data_vars) - set(mine["/"].data_vars)
+
+
+def test_a_task_without_tangential_work_solves_on_rows(comm):
+    """On a group of several ranks, a task with no tangential sweep or fretting solves its loads on
+    the surface by rows: its first rank makes the surface and receives the fields the task stores;
+    the other ranks hold neither. Each load is the solve of the whole surface on the same ranks, bit
+    for bit (the same rows, the same sums)."""
+    from roughcontact.farm.task import open_normal_solver
+
+    if comm.Get_size() == 1:
+        pytest.skip("needs a group of several ranks")
+    task = load_study(tiny(name="rows", tangential={}, output={"fields": "force"})).tasks()[0]
+    outcome = solve_task(task, comm)
+    assert outcome.error is None and len(outcome.normal) == 3
+    with open_normal_solver(task.topography(), task.interface, comm, task.normal) as solver:
+        reference = [task.normal.solve(solver, task.load_dim, float(value)) for value in task.loads]
+    first = comm.Get_rank() == 0
+    assert (outcome.topography is not None) == first
+    for got, expected in zip(outcome.normal, reference):
+        for name in ("load", "closure", "rotation", "moments", "contact_area", "linear_iterations", "residual"):
+            assert getattr(got, name) == getattr(expected, name), name
+        assert got.pressure is None and got.gap is None and not got.distributed
+        if first:
+            np.testing.assert_array_equal(got.force, expected.force)
+            np.testing.assert_array_equal(got.contact, expected.contact)
+        else:
+            assert got.force is None and got.contact is None
+
+
+def test_a_surface_that_cannot_be_made_ends_the_task_on_every_rank(comm, monkeypatch):
+    """On rows only the first rank makes the surface: its failure ends the task on every rank of the
+    group with the same message and error name (no rank is left waiting for its rows)."""
+    from roughcontact.farm.task import Task
+
+    if comm.Get_size() == 1:
+        pytest.skip("needs a group of several ranks")
+
+    def broken(self):
+        raise InputError("surface", "forced for the test")
+
+    monkeypatch.setattr(Task, "topography", broken)
+    outcome = solve_task(load_study(tiny(name="rows", tangential={})).tasks()[0], comm)
+    assert outcome.error == "InputError: surface: forced for the test" and outcome.normal == []
+    assert comm.allgather(outcome.error) == [outcome.error] * comm.Get_size()

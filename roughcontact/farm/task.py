@@ -48,11 +48,12 @@ class NormalOptions:
         check_choice("normal.operator", self.operator, OPERATORS)
         check_choice("normal.method", self.method, METHODS)
 
-    def solve(self, solver, control: str, value: float):
-        """The normal solution at ``value`` (SI) of ``control``: ``"closure"`` (δz, m) or a load (P, N)."""
+    def solve(self, solver, control: str, value: float, gather: bool = True):
+        """The normal solution at ``value`` (SI) of ``control``: ``"closure"`` (δz, m) or a load (P, N);
+        ``gather=False``: each rank keeps its own rows of the fields (:mod:`roughcontact.normal.fields`)."""
         if control == "closure":
-            return solver.solve_closure(value, self.rotation or (0.0, 0.0))
-        return solver.solve_load(value, rotation=self.rotation)
+            return solver.solve_closure(value, self.rotation or (0.0, 0.0), gather=gather)
+        return solver.solve_load(value, rotation=self.rotation, gather=gather)
 
 
 @dataclass(frozen=True)
@@ -228,20 +229,28 @@ def solve_task(task: Task, comm, timeout: float | None = None) -> TaskOutcome:
     load is never cut short, so every number kept is a converged one.
     """
     from ..datasets import keep_fields
+    from ..normal import gather_result
 
     t0 = time.perf_counter()
     outcome = TaskOutcome(task=task, ranks=comm.Get_size())
+    # a task without tangential work on several ranks solves on rows: its first rank makes the surface
+    # and hands out the rows, and receives the fields the task stores; no other rank holds N values
+    by_rows = task.tangential is None and task.fretting is None and comm.Get_size() > 1
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            topography = outcome.topography = task.topography()
+            topography = _surface_by_rows(task, comm, outcome) if by_rows else task.topography()
+            if not by_rows:
+                outcome.topography = topography
             scale = topography.nominal_area if task.load_dim == "mean_pressure" else 1.0
             with open_normal_solver(topography, task.interface, comm, task.normal) as solver:
                 problem = solver.problem
                 for i, control in enumerate(task.loads):
                     if i:
                         _check_deadline(comm, t0, timeout, i, len(task.loads))
-                    normal = task.normal.solve(solver, task.load_dim, float(control) * scale)
+                    normal = task.normal.solve(solver, task.load_dim, float(control) * scale, gather=not by_rows)
+                    if by_rows:
+                        normal = gather_result(keep_fields(normal, task.fields), problem, root=0)
                     outcome.normal.append(normal)
                     load = normal.load if task.load_dim == "closure" else float(control) * scale
                     outcome.loads.append(load)
@@ -254,10 +263,35 @@ def solve_task(task: Task, comm, timeout: float | None = None) -> TaskOutcome:
                         outcome.normal[-1] = keep_fields(normal, task.fields)
                         del normal
         except RoughContactError as exc:
-            outcome.error = f"{type(exc).__name__}: {exc}"
+            outcome.error = f"{getattr(exc, 'relayed_name', type(exc).__name__)}: {exc}"
     outcome.warnings = tuple(dict.fromkeys(f"{w.category.__name__}: {w.message}" for w in caught))
     outcome.elapsed = time.perf_counter() - t0
     return outcome
+
+
+def _surface_by_rows(task: Task, comm, outcome: TaskOutcome):
+    """Rank 0 makes the task's surface (kept in ``outcome.topography`` there, for the task's file) and
+    hands every rank its rows; a failure to make it raises the same error on every rank."""
+    from ..surfaces import TopographyRows
+
+    whole, failure = None, None
+    if comm.Get_rank() == 0:
+        try:
+            whole = outcome.topography = task.topography()
+        except RoughContactError as exc:
+            failure = exc
+    failure = comm.bcast(None if failure is None else (type(failure).__name__, str(failure)), root=0)
+    if failure is not None:
+        raise _Relayed(*failure)
+    return TopographyRows.scatter(whole, comm)
+
+
+class _Relayed(RoughContactError):
+    """A failure met on one rank of a task, raised on all of them under its own name."""
+
+    def __init__(self, name: str, message: str):
+        super().__init__(message)
+        self.relayed_name = name
 
 
 def _tangential_at(task: Task, i: int, problem, normal, load: float, outcome: TaskOutcome) -> None:

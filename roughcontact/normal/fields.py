@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from .problem import NormalProblem, allgather_into
+from .problem import NormalProblem, gather_into
 from .result import NormalResult
 
 
@@ -39,27 +39,31 @@ def _row_blocks(result: NormalResult, problem: NormalProblem) -> list[tuple[int,
     nx, ny = problem.topography.shape
     rows = tuple(result.rows) if result.distributed else (0, nx)
     expected = tuple(problem.flexibility.layout.rows) if result.distributed else (0, nx)
-    ok = rows == expected and result.force.shape == (rows[1] - rows[0], ny)
+    held = [f for f in (result.force, result.pressure, result.contact, result.gap) if f is not None]
+    ok = rows == expected and all(f.shape == (rows[1] - rows[0], ny) for f in held)
     if not problem.comm.allreduce(ok, op=_land()):
         raise InputError("result", "its fields do not match the problem's grid and rows on every rank: "
                                    "it was solved on another problem or communicator")
     return problem.comm.allgather(rows)
 
 
-def gather_result(result: NormalResult, problem: NormalProblem) -> NormalResult:
-    """The result with every field whole on every rank (collective; ``result`` itself when it already is)."""
+def gather_result(result: NormalResult, problem: NormalProblem, root: int | None = None) -> NormalResult:
+    """The result with every field whole on every rank (collective; ``result`` itself when it already
+    is). With ``root``, whole on that rank only, and without fields (None) on the others. A field
+    the result no longer holds (None, :func:`~roughcontact.datasets.keep_fields`) stays None."""
     blocks = _row_blocks(result, problem)
     if not result.distributed:
         return result
     shape = problem.topography.shape
     counts = [(stop - start) * shape[1] for start, stop in blocks]
 
-    def whole(block: np.ndarray) -> np.ndarray:
-        return allgather_into(problem.comm, block, counts, shape)
+    def whole(block):
+        return None if block is None else gather_into(problem.comm, block, counts, shape, root)
 
     force = whole(result.force)
     spacing = problem.topography.spacing
-    return replace(result, force=force, pressure=force / spacing**2, contact=whole(result.contact),
+    pressure = force / spacing**2 if force is not None and result.pressure is not None else None
+    return replace(result, force=force, pressure=pressure, contact=whole(result.contact),
                    gap=whole(result.gap), rows=None)
 
 

@@ -148,7 +148,7 @@ class NormalProblem(Collective):
         in place into one array (no pickled copies)."""
         if np.shape(local) != (self.local_size,):
             raise ValueError(f"gather takes this rank's {self.local_size} values, got shape {np.shape(local)}")
-        return allgather_into(self.comm, local, self.counts, (self.size,))
+        return gather_into(self.comm, local, self.counts, (self.size,))
 
     def nearest_node(self, point) -> int:
         """Global index of the footprint node nearest to ``point`` (centroid-relative x, y; the
@@ -205,12 +205,19 @@ class NormalProblem(Collective):
             self.flexibility.destroy()
 
 
-def allgather_into(comm, local: np.ndarray, counts, shape: tuple[int, ...]) -> np.ndarray:
+def gather_into(comm, local: np.ndarray, counts, shape: tuple[int, ...], root: int | None = None):
     """Every rank's ``local`` values (``counts`` of them each, in rank order) received in place into
-    one array of ``shape`` on every rank (booleans travel as bytes; no pickled copies)."""
+    one array of ``shape`` on every rank (``root`` None) or on rank ``root`` only (None elsewhere);
+    booleans travel as bytes, no pickled copies."""
     local = np.ascontiguousarray(local)
     flag = local.dtype == bool
     send = local.view(np.uint8) if flag else local
-    out = np.empty(shape, dtype=send.dtype)
-    comm.Allgatherv(send, [out, counts])
+    if root is None:
+        out = np.empty(shape, dtype=send.dtype)
+        comm.Allgatherv(send, [out, counts])
+    else:
+        out = np.empty(shape, dtype=send.dtype) if comm.Get_rank() == root else None
+        comm.Gatherv(send, [out, counts] if out is not None else None, root=root)
+        if out is None:
+            return None
     return out.view(bool) if flag else out

@@ -44,3 +44,22 @@ def sphere_heights(n: int, spacing: float, radius: float, centre=None) -> np.nda
     x = np.arange(n) * spacing - (c if np.isscalar(c) else c[0])
     y = np.arange(n) * spacing - (c if np.isscalar(c) else c[1])
     return -(x[:, None] ** 2 + y[None, :] ** 2) / (2.0 * radius)
+
+
+def traced_share(comm, work) -> float:
+    """Peak traced allocations (tracemalloc: deterministic, unlike the resident set) of ``work(on)``
+    on the busiest rank of ``comm``, over the same on one rank alone. Each side runs once first, so
+    FFT plan caches and first-use buffers are not counted."""
+    import tracemalloc
+
+    def peak(on) -> int:
+        tracemalloc.start()
+        work(on)
+        _, top = tracemalloc.get_traced_memory()
+        tracemalloc.stop()
+        return top
+
+    peak(MPI.COMM_SELF)
+    peak(comm)
+    alone = peak(MPI.COMM_SELF)
+    return comm.allreduce(peak(comm), op=MPI.MAX) / alone

@@ -3,16 +3,15 @@
 computes from the whole grid, on any number of ranks."""
 from __future__ import annotations
 
-import tracemalloc
-
 import numpy as np
 import pytest
-from mpi4py import MPI
 from scipy.spatial import ConvexHull
 
 from roughcontact.materials import Interface, Material
 from roughcontact.normal import NormalProblem
 from roughcontact.surfaces import Topography
+
+from conftest import traced_share
 
 ROCK = Interface(Material(30e9, 0.25))
 
@@ -94,18 +93,9 @@ def test_set_up_memory_divides_over_the_ranks(comm):
     n = 256
     topo = Topography(np.random.default_rng(1).standard_normal((n, n)) * 1e-6, 1e-4)
 
-    def peak(on) -> int:
-        tracemalloc.start()
-        problem = NormalProblem(topo, ROCK, on, operator="fft")
-        problem.flexibility.preconditioner
-        _, top = tracemalloc.get_traced_memory()
-        tracemalloc.stop()
-        problem.destroy()
-        return top
+    def set_up(on) -> None:
+        with NormalProblem(topo, ROCK, on, operator="fft") as problem:
+            problem.flexibility.preconditioner
 
-    peak(MPI.COMM_SELF)                       # FFT plan caches and first-use buffers, counted once
-    peak(comm)
-    alone = peak(MPI.COMM_SELF)
-    shared = comm.allreduce(peak(comm), op=MPI.MAX)
-    ranks = comm.Get_size()
-    assert shared <= (1.0 / ranks + 0.1) * alone, (shared / alone, ranks)
+    share, ranks = traced_share(comm, set_up), comm.Get_size()
+    assert share <= 1.0 / ranks + 0.1, (share, ranks)

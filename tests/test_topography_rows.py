@@ -14,6 +14,8 @@ from roughcontact.surfaces import Topography, TopographyRows, coarsen
 from roughcontact.surfaces.rows import split
 from roughcontact.tangential import CattaneoSolver
 
+from conftest import traced_share
+
 ROCK = Interface(Material(30e9, 0.25))
 FIELDS = ("force", "pressure", "contact", "gap")
 
@@ -165,30 +167,19 @@ def test_a_solve_on_rows_holds_memory_that_divides_over_the_ranks(comm):
     measured 0.519, 0.354 and 0.282: over the bound from three ranks on (the surface is 9 B/node
     against the solve's ~300, so on two ranks it stays within 0.02). Rank 0's input array exists
     before the count starts."""
-    import tracemalloc
-
     if comm.Get_size() == 1:
         pytest.skip("needs more than one rank")
     n = 256
     whole = Topography(np.random.default_rng(1).standard_normal((n, n)) * 1e-6, 1e-4)
     load = 1e-3 * whole.nominal_area * ROCK.contact_modulus
 
-    def peak(on) -> int:
-        tracemalloc.start()
+    def solve(on) -> None:
         topography = TopographyRows.scatter(whole if on.Get_rank() == 0 else None, on)
         with NormalProblem(topography, ROCK, on, operator="fft") as problem, make_solver(problem, "cg") as solver:
-            result = solver.solve_load(load, rotation=(0.0, 0.0), gather=False)
-            assert result.coarse_iterations > 0
-            _, top = tracemalloc.get_traced_memory()
-        tracemalloc.stop()
-        return top
+            assert solver.solve_load(load, rotation=(0.0, 0.0), gather=False).coarse_iterations > 0
 
-    peak(MPI.COMM_SELF)                       # FFT plan caches and first-use buffers, counted once
-    peak(comm)
-    alone = peak(MPI.COMM_SELF)
-    shared = comm.allreduce(peak(comm), op=MPI.MAX)
-    ranks = comm.Get_size()
-    assert shared <= (1.0 / ranks + 0.02) * alone, (shared / alone, ranks)
+    share, ranks = traced_share(comm, solve), comm.Get_size()
+    assert share <= 1.0 / ranks + 0.02, (share, ranks)
 
 
 def test_each_rank_reads_its_rows_of_a_topography_file(comm, shared_dir):

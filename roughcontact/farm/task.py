@@ -263,7 +263,7 @@ def solve_task(task: Task, comm, timeout: float | None = None) -> TaskOutcome:
                         outcome.normal[-1] = keep_fields(normal, task.fields)
                         del normal
         except RoughContactError as exc:
-            outcome.error = f"{getattr(exc, 'relayed_name', type(exc).__name__)}: {exc}"
+            outcome.error = f"{type(exc).__name__}: {exc}"
     outcome.warnings = tuple(dict.fromkeys(f"{w.category.__name__}: {w.message}" for w in caught))
     outcome.elapsed = time.perf_counter() - t0
     return outcome
@@ -273,25 +273,13 @@ def _surface_by_rows(task: Task, comm, outcome: TaskOutcome):
     """Rank 0 makes the task's surface (kept in ``outcome.topography`` there, for the task's file) and
     hands every rank its rows; a failure to make it raises the same error on every rank."""
     from ..surfaces import TopographyRows
+    from .executor import on_root
 
-    whole, failure = None, None
-    if comm.Get_rank() == 0:
-        try:
-            whole = outcome.topography = task.topography()
-        except RoughContactError as exc:
-            failure = exc
-    failure = comm.bcast(None if failure is None else (type(failure).__name__, str(failure)), root=0)
-    if failure is not None:
-        raise _Relayed(*failure)
-    return TopographyRows.scatter(whole, comm)
+    def make() -> None:                     # the surface stays on rank 0: nothing is broadcast
+        outcome.topography = task.topography()
 
-
-class _Relayed(RoughContactError):
-    """A failure met on one rank of a task, raised on all of them under its own name."""
-
-    def __init__(self, name: str, message: str):
-        super().__init__(message)
-        self.relayed_name = name
+    on_root(comm, make)
+    return TopographyRows.scatter(outcome.topography, comm)
 
 
 def _tangential_at(task: Task, i: int, problem, normal, load: float, outcome: TaskOutcome) -> None:

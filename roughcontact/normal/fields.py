@@ -28,7 +28,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from .problem import NormalProblem, gather_into
+from ..surfaces.rows import gather_into
+from .problem import NormalProblem
 from .result import NormalResult
 
 
@@ -41,7 +42,7 @@ def _row_blocks(result: NormalResult, problem: NormalProblem) -> list[tuple[int,
     expected = tuple(problem.flexibility.layout.rows) if result.distributed else (0, nx)
     held = [f for f in (result.force, result.pressure, result.contact, result.gap) if f is not None]
     ok = rows == expected and all(f.shape == (rows[1] - rows[0], ny) for f in held)
-    if not problem.comm.allreduce(ok, op=_land()):
+    if not all(problem.comm.allgather(ok)):
         raise InputError("result", "its fields do not match the problem's grid and rows on every rank: "
                                    "it was solved on another problem or communicator")
     return problem.comm.allgather(rows)
@@ -150,8 +151,3 @@ def _open_file(result: NormalResult, problem: NormalProblem, tmp: Path, names: l
         raise
     return handle
 
-
-def _land():
-    from mpi4py import MPI
-
-    return MPI.LAND

@@ -21,6 +21,7 @@ import numpy as np
 from ..collective import Collective
 from ..errors import InputError
 from ..materials import Interface
+from ..surfaces.rows import gather_into
 from ..surfaces.topography import Topography
 
 
@@ -204,20 +205,3 @@ class NormalProblem(Collective):
         if self._owns_operator:
             self.flexibility.destroy()
 
-
-def gather_into(comm, local: np.ndarray, counts, shape: tuple[int, ...], root: int | None = None):
-    """Every rank's ``local`` values (``counts`` of them each, in rank order) received in place into
-    one array of ``shape`` on every rank (``root`` None) or on rank ``root`` only (None elsewhere);
-    booleans travel as bytes, no pickled copies."""
-    local = np.ascontiguousarray(local)
-    flag = local.dtype == bool
-    send = local.view(np.uint8) if flag else local
-    if root is None:
-        out = np.empty(shape, dtype=send.dtype)
-        comm.Allgatherv(send, [out, counts])
-    else:
-        out = np.empty(shape, dtype=send.dtype) if comm.Get_rank() == root else None
-        comm.Gatherv(send, [out, counts] if out is not None else None, root=root)
-        if out is None:
-            return None
-    return out.view(bool) if flag else out

@@ -2,7 +2,7 @@
 
 The unknowns of every operator are the footprint nodes in C order of the
 mask (``numpy.argwhere(footprint)``). Rank r owns the nodes of grid rows
-[row_start, row_stop) given by :func:`~.convolution.split` (nx, ranks): a
+[row_start, row_stop) given by :func:`~roughcontact.surfaces.rows.split` (nx, ranks): a
 contiguous range of unknowns, and exactly the rows of the slab that the FFT
 convolution transforms on that rank, so a distributed vector maps to the
 rank's slab of the grid without communication. Both operators use this
@@ -16,7 +16,7 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import InputError
-from .convolution import split
+from ..surfaces.rows import gather_into, split
 
 
 @dataclass(frozen=True)
@@ -55,7 +55,7 @@ class NodeLayout:
         :class:`~roughcontact.surfaces.TopographyRows` (this rank's rows) on ``comm``."""
         shape = tuple(topography.shape)
         r0, r1 = split(shape[0], comm.Get_size())[comm.Get_rank()]
-        if topography.by_rows and not comm.allreduce(tuple(topography.rows) == (r0, r1), op=_land()):
+        if topography.by_rows and not all(comm.allgather(tuple(topography.rows) == (r0, r1))):
             raise InputError("topography", f"holds rows split over another number of ranks than the "
                                            f"communicator's {comm.Get_size()}")
         per_row = np.asarray(topography.row_counts)
@@ -68,11 +68,8 @@ class NodeLayout:
         """The same layout holding the whole footprint (collective: gathered from every rank's rows)."""
         if self.footprint is not None:
             return self
-        blocks = comm.allgather(self.rows)
-        counts = [(b - a) * self.shape[1] for a, b in blocks]
-        whole = np.empty(self.shape, dtype=np.uint8)
-        comm.Allgatherv(np.ascontiguousarray(self.local_mask).view(np.uint8), [whole, counts])
-        return replace(self, footprint=whole.view(bool))
+        counts = [(b - a) * self.shape[1] for a, b in comm.allgather(self.rows)]
+        return replace(self, footprint=gather_into(comm, self.local_mask, counts, self.shape))
 
     @property
     def local_size(self) -> int:
@@ -119,8 +116,3 @@ class NodeLayout:
         nodes[:, 0] += self.rows[0]
         return nodes
 
-
-def _land():
-    from mpi4py import MPI
-
-    return MPI.LAND

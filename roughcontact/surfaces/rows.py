@@ -31,6 +31,7 @@ import numpy as np
 
 from ..checks import require_finite_positive
 from ..errors import InputError
+from .topography import require_finite_heights
 
 
 def split(n: int, parts: int) -> list[tuple[int, int]]:
@@ -86,17 +87,14 @@ class TopographyRows:
         ``shape``; ``footprint`` the same rows' mask, default all). Collective: every rank
         checks its rows and all raise the same :class:`~roughcontact.errors.InputError`
         if any rank's are wrong."""
-        error, parts = None, None
+        error, parts, rank = None, None, comm.Get_rank()
         try:
             parts = _checked(heights, spacing, shape, comm, footprint)
         except InputError as exc:
-            error = (comm.Get_rank(), exc.parameter, str(exc)[len(exc.parameter) + 2:])
+            error = (exc.parameter, f"{str(exc)[len(exc.parameter) + 2:]} (rank {rank})")
         except (TypeError, ValueError) as exc:      # arrays numpy cannot read as numbers: same path
-            error = (comm.Get_rank(), "heights", f"cannot be read as numbers ({exc})")
-        errors = [e for e in comm.allgather(error) if e is not None]
-        if errors:
-            rank, parameter, message = errors[0]
-            raise InputError(parameter, f"{message} (rank {rank})")
+            error = ("heights", f"cannot be read as numbers ({exc}) (rank {rank})")
+        _raise_on_every_rank(comm, error)
         heights, spacing, shape, rows, footprint = parts
         heights.setflags(write=False)
         footprint.setflags(write=False)
@@ -167,10 +165,8 @@ class TopographyRows:
                                                units=units, stored_metadata=stored,
                                                pixel_size=(spacing, spacing), missing_points=0))
         except (OSError, KeyError, ValueError, TypeError, IndexError) as exc:
-            error = f"{path.name}: not a topography file of write_topography ({type(exc).__name__}: {exc})"
-        errors = [e for e in comm.allgather(error) if e is not None]
-        if errors:
-            raise InputError("path", errors[0])
+            error = ("path", f"{path.name}: not a topography file of write_topography ({type(exc).__name__}: {exc})")
+        _raise_on_every_rank(comm, error)
         shape, spacing, metadata = header
         return cls.from_rows(mine, spacing, shape, comm, mask, metadata)
 
@@ -233,6 +229,24 @@ def rows_window(held: np.ndarray, rows: tuple[int, int], needed: tuple[int, int]
     return out
 
 
+def gather_into(comm, local: np.ndarray, counts, shape: tuple[int, ...], root: int | None = None):
+    """Every rank's ``local`` values (``counts`` of them each, in rank order) received in place into
+    one array of ``shape`` on every rank (``root`` None) or on rank ``root`` only (None elsewhere);
+    booleans travel as bytes, no pickled copies."""
+    local = np.ascontiguousarray(local)
+    flag = local.dtype == bool
+    send = local.view(np.uint8) if flag else local
+    if root is None:
+        out = np.empty(shape, dtype=send.dtype)
+        comm.Allgatherv(send, [out, counts])
+    else:
+        out = np.empty(shape, dtype=send.dtype) if comm.Get_rank() == root else None
+        comm.Gatherv(send, [out, counts] if out is not None else None, root=root)
+        if out is None:
+            return None
+    return out.view(bool) if flag else out
+
+
 def _checked(heights, spacing, shape, comm, footprint):
     """The validated parts of one rank's rows (raises InputError on this rank)."""
     try:
@@ -251,8 +265,13 @@ def _checked(heights, spacing, shape, comm, footprint):
     footprint = np.ones(expected, dtype=bool) if footprint is None else np.array(footprint, dtype=bool)
     if footprint.shape != expected:
         raise InputError("footprint", f"shape {footprint.shape} differs from heights {expected}")
-    bad = int((~np.isfinite(heights) & footprint).sum())
-    if bad:
-        raise InputError("heights", f"{bad} node(s) of the footprint are NaN or infinite; mask missing "
-                                    "data out of the footprint or fill it before solving")
+    require_finite_heights(heights, footprint)
     return heights, spacing, (nx, ny), rows, footprint
+
+
+def _raise_on_every_rank(comm, error: tuple[str, str] | None) -> None:
+    """The InputError(parameter, message) of the lowest rank that met one, raised on every rank
+    (collective: no rank is left waiting in the next call)."""
+    errors = [e for e in comm.allgather(error) if e is not None]
+    if errors:
+        raise InputError(*errors[0])

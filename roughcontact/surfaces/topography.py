@@ -62,12 +62,7 @@ class Topography:
             footprint = footprint.astype(bool)
         if not footprint.any():
             raise InputError("footprint", "is empty: no node belongs to the nominal contact region")
-        bad = ~np.isfinite(heights) & footprint
-        if bad.any():
-            raise InputError(
-                "heights",
-                f"{int(bad.sum())} node(s) of the footprint are NaN or infinite; "
-                "mask missing data out of the footprint or fill it before solving")
+        require_finite_heights(heights, footprint)
         heights = heights.copy()
         heights.setflags(write=False)
         footprint = footprint.copy()
@@ -137,6 +132,14 @@ class Topography:
     def with_footprint(self, footprint: np.ndarray) -> "Topography":
         """The same heights on another footprint."""
         return Topography(self.heights, self.spacing, footprint, self.metadata)
+
+
+def require_finite_heights(heights: np.ndarray, footprint: np.ndarray) -> None:
+    """InputError unless every height on the footprint is finite (heights elsewhere are ignored)."""
+    bad = int((~np.isfinite(heights) & footprint).sum())
+    if bad:
+        raise InputError("heights", f"{bad} node(s) of the footprint are NaN or infinite; "
+                                    "mask missing data out of the footprint or fill it before solving")
 
 
 def _square_spacing(spacing) -> float:

@@ -1,10 +1,14 @@
 #!/usr/bin/env python
 """Benchmark of the ensemble farm: throughput on 1 and 2 ranks, overhead per task, the leaders' writes.
 
-Two ensembles of random-midpoint surfaces (Δ = 2.3, ν = 0 half-spaces):
+Ensembles of random-midpoint surfaces (Δ = 2.3, ν = 0 half-spaces):
 
 - ``small``: 64 tasks of 33 × 33 nodes and 6 loads (tens of ms each), fields "all";
-- ``long``: 16 tasks of 65 × 65 nodes and 32 loads (about a second each), fields "contact".
+- ``long``: 16 tasks of 65 × 65 nodes and 32 loads (about a second each), fields "contact";
+- ``scaling`` (only when named): 64 tasks of 129 × 129 nodes and 6 loads, fields "contact",
+  enough to keep 16 ranks busy for strong scaling on a larger machine::
+
+      python -m benchmarks.bench_farm --cases scaling --ranks 1 2 4 8 16 --repeats 1 --no-bare --bind-to core
 
 For each, the farm (``run_study``: checks, the farm, a task file per task,
 the combined dataset and figure) is timed on each rank count, and on one
@@ -38,7 +42,11 @@ from benchmarks.common import add_launch_arguments, emit, run_on_ranks, save_jso
 CASES = {
     "small": {"levels": 5, "seeds": 64, "loads": list(np.linspace(20.0, 120.0, 6)), "fields": "all"},
     "long": {"levels": 6, "seeds": 16, "loads": list(np.linspace(25.0, 1000.0, 32)), "fields": "contact"},
+    # strong scaling over up to 16 ranks (bench_scaling): tasks enough to keep 16 ranks busy
+    "scaling": {"levels": 7, "seeds": 64, "loads": list(np.linspace(50.0, 1000.0, 6)), "fields": "contact"},
 }
+#: what a run without --cases measures
+DEFAULT_CASES = ["small", "long"]
 
 
 def study_of(name: str) -> dict:
@@ -125,7 +133,7 @@ def worker(args) -> None:
                "task_files_MB": float(np.median(written)) / 1e6,
                "write_s_median": float(np.median(write_s)),
                "write_MB_per_s": float(np.median(written)) / 1e6 / max(float(np.median(write_s)), 1e-9)}
-        if comm.Get_size() == 1:
+        if comm.Get_size() == 1 and args.bare:
             bare = []
             for _ in range(args.repeats):
                 t0 = time.perf_counter()
@@ -143,14 +151,17 @@ def worker(args) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
+    parser.add_argument("--cases", nargs="+", default=DEFAULT_CASES, choices=list(CASES))
+    parser.add_argument("--no-bare", dest="bare", action="store_false",
+                        help="skip the bare serial loop on one rank (the overhead per task)")
     add_launch_arguments(parser, repeats=3, output="results/bench_farm.json")
     args = parser.parse_args()
     if args.worker:
         worker(args)
         return
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")     # one BLAS thread per rank
-    rows = run_on_ranks(__spec__.name, args.ranks, ["--repeats", str(args.repeats), "--cases", *args.cases])
+    rows = run_on_ranks(__spec__.name, args.ranks, ["--repeats", str(args.repeats), "--cases", *args.cases]
+                        + ([] if args.bare else ["--no-bare"]), bind_to=args.bind_to)
     summary = []
     for name in args.cases:
         by_ranks = {r["ranks"]: r for r in rows if r["case"] == name}
@@ -168,7 +179,7 @@ def main() -> None:
                   + f", ranks busy {row['farm_utilisation_median']:.0%} of the farm phase"
                   + f", leaders write {row['write_MB_per_s']:.0f} MB/s ({row['task_files_MB']:.1f} MB)")
     report = {"benchmark": "ensemble farm: run_study on 1 and 2 ranks against a bare serial loop of the solves",
-              "machine": {"cpus": os.cpu_count()}, "repeats": args.repeats, "cases": CASES, "rows": summary}
+              "machine": {"cpus": os.cpu_count()}, "bind_to": args.bind_to, "repeats": args.repeats, "cases": CASES, "rows": summary}
     save_json(report, args.output)
 
 

@@ -51,13 +51,20 @@ def run_module(module: str, args: list[str], python: str | None = None) -> list[
     return [python or sys.executable, "-m", module, *args]
 
 
-def run_on_ranks(module: str, ranks: list[int], worker_args: list[str]) -> list[dict]:
-    """Rows written by ``module --worker --json FILE <worker_args>`` on each rank count."""
+def run_on_ranks(module: str, ranks: list[int], worker_args: list[str], bind_to: str = "none") -> list[dict]:
+    """Rows written by ``module --worker --json FILE <worker_args>`` on each rank count.
+
+    ``bind_to="core"`` pins each rank to one core (``--bind-to core``, which MPICH's Hydra and
+    Open MPI both take): the FFT then runs one thread per rank, so a rank count measures ranks
+    alone; ``"none"`` leaves the ranks free to share the node's cores through the FFT threads.
+    """
     rows = []
+    binding = ["--bind-to", bind_to] if bind_to != "none" else []
     for n in ranks:
         with tempfile.TemporaryDirectory() as tmp:
             out = Path(tmp) / "rows.json"
-            cmd = [mpiexec(), "-n", str(n), *run_module(module, ["--worker", "--json", str(out), *worker_args])]
+            cmd = [mpiexec(), *binding, "-n", str(n),
+                   *run_module(module, ["--worker", "--json", str(out), *worker_args])]
             # one BLAS thread per rank: OpenBLAS's spinning threads oversubscribe the cores otherwise
             env = dict(os.environ, OPENBLAS_NUM_THREADS=os.environ.get("OPENBLAS_NUM_THREADS", "1"),
                        OMP_NUM_THREADS=os.environ.get("OMP_NUM_THREADS", "1"))
@@ -83,6 +90,8 @@ def add_launch_arguments(parser: argparse.ArgumentParser, repeats: int, output: 
     """The options every benchmark takes: rank counts, repeats, output, and the hidden
     worker switches used by :func:`run_on_ranks`."""
     parser.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--bind-to", choices=["none", "core"], default="none",
+                        help="core: one core per rank (one FFT thread each); none (default): the launcher's placement")
     parser.add_argument("--repeats", type=int, default=repeats)
     parser.add_argument("--output", default=output)
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)

@@ -1,0 +1,149 @@
+#!/usr/bin/env python3
+"""Strong scaling of one large normal solve over ranks: the same surface, 1 to 16 ranks.
+
+The large-grid scene (benchmarks.common.scene_surface: Hurst 0.8, unit rms
+slope, mean pressure 0.01 E*, tolerance 1e-8, FFT operator, rotation fixed,
+the nested start) on an n × n grid. The driver makes the surface once and
+writes it with ``write_topography``; on each rank count every rank reads
+only its own rows (``TopographyRows.read``) and the solve keeps its result by
+rows (``gather=False``), so no rank holds the whole grid and the wall time is
+the problem's set-up and solve alone.
+
+    python -m benchmarks.bench_scaling --sizes 4096 --ranks 1 2 4 8 16 --bind-to core
+        [--repeats 1] [--output results/bench_scaling.json]
+
+Per size and rank count: wall time (median of ``--repeats``, set-up of the
+operator and every level of the start included), speed-up and parallel
+efficiency against the one-rank time of the same run, fine and coarse CG
+iterations, the residual, each rank's peak resident set, and the FFT
+threads per rank. ``--bind-to core`` pins each rank to a core, so the FFT
+runs one thread per rank and the rows measure ranks alone; without it the
+ranks of a node share its cores through the FFT threads (what a user gets
+by default). The force field is checked against the one-rank solve of the
+same run: the total and the sum of squares must agree to the solve's
+tolerance (1e-8) and the contact count within one node, so a rank count
+that changed the answer is reported, not timed as a success.
+The rows are written after each rank count, so an interrupted run keeps
+the counts it finished.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks.common import (
+    SCENE_PRESSURE,
+    add_launch_arguments,
+    emit,
+    proc_status,
+    run_on_ranks,
+    save_json,
+    scene_topography,
+    worker_mpi,
+    write_rows,
+)
+
+#: agreement of the force field's invariants with the one-rank solve. The ranks change only the
+#: order of the sums, but each solve stops once its residual is below the scene's tolerance 1e-8,
+#: so two rank counts may differ by up to that tolerance, not by round-off alone (4096² on a
+#: 16-core machine: 1.4e-10 in the sum of squares on 2, 4 and 16 ranks, 1.8e-9 on 8)
+INVARIANT_RTOL = 1e-8
+
+
+def worker(args) -> None:
+    """Under mpiexec: read one surface file by rows and solve it ``repeats`` times."""
+    MPI = worker_mpi()
+
+    import roughcontact.normal  # noqa: F401 - imports belong to the process, not to the timing
+    from benchmarks.common import scene_problem, solve_scene
+    from roughcontact.surfaces import TopographyRows
+
+    comm = MPI.COMM_WORLD
+    rows: list[dict] = []
+    topography = TopographyRows.read(args.surface, comm)
+    n = topography.shape[0]
+    times, result, threads = [], None, None
+    for _ in range(args.repeats):
+        comm.Barrier()
+        t0 = time.perf_counter()
+        problem = scene_problem(topography, comm)
+        result = solve_scene(problem, SCENE_PRESSURE, gather=False)
+        threads = problem.flexibility.convolution.workers      # the FFT threads the operator used
+        problem.destroy()
+        comm.Barrier()
+        times.append(time.perf_counter() - t0)
+    force = np.asarray(result.force)
+    emit(comm, rows, {
+        "n": n, "ranks": comm.Get_size(), "seconds": float(np.median(times)), "all_seconds": times,
+        "repeats": args.repeats, "iterations": result.linear_iterations,
+        "coarse_iterations": result.coarse_iterations, "residual": result.residual,
+        "contact_fraction": result.contact_fraction,
+        "force_sum": comm.allreduce(float(force.sum())),
+        "force_sum_squares": comm.allreduce(float(np.dot(force.ravel(), force.ravel()))),
+        "contact_nodes": comm.allreduce(int(np.count_nonzero(force > 0))),
+        "fft_threads_per_rank": threads,
+        "cores_per_rank": len(os.sched_getaffinity(0)),
+        "peak_rss_bytes_per_rank": comm.allreduce(proc_status("VmHWM"), op=MPI.MAX)})
+    write_rows(comm, rows, args.json)
+
+
+def compare(rows: list[dict]) -> None:
+    """Speed-up, efficiency and agreement with the one-rank solve of the same size and binding."""
+    one = next((r for r in rows if r["ranks"] == 1), None)
+    for row in rows:
+        row["bytes_per_node_per_rank"] = row["peak_rss_bytes_per_rank"] / row["n"] ** 2
+        if one is None:
+            continue
+        row["speedup"] = one["seconds"] / row["seconds"]
+        row["efficiency"] = row["speedup"] / row["ranks"]
+        row["agrees_with_one_rank"] = bool(
+            abs(row["force_sum"] - one["force_sum"]) <= INVARIANT_RTOL * abs(one["force_sum"])
+            and abs(row["force_sum_squares"] - one["force_sum_squares"])
+            <= INVARIANT_RTOL * abs(one["force_sum_squares"])
+            and abs(row["contact_nodes"] - one["contact_nodes"]) <= max(1, 1e-6 * one["contact_nodes"]))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[4096])
+    parser.add_argument("--surface", help=argparse.SUPPRESS)
+    add_launch_arguments(parser, repeats=1, output="results/bench_scaling.json")
+    args = parser.parse_args()
+    if args.worker:
+        worker(args)
+        return
+    from roughcontact.surfaces import write_topography
+
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")     # one BLAS thread per rank
+    report = {"benchmark": "strong scaling of one normal solve (large-grid scene, surface and result by rows)",
+              "machine": {"cpus": os.cpu_count()}, "bind_to": args.bind_to, "repeats": args.repeats,
+              "invariant_rtol": INVARIANT_RTOL, "rows": []}
+    with tempfile.TemporaryDirectory() as tmp:
+        for n in args.sizes:
+            path = Path(tmp) / f"scene_{n}.nc"
+            t0 = time.perf_counter()
+            write_topography(scene_topography(n), path)
+            print(f"{n}²: surface made and written in {time.perf_counter() - t0:.1f} s", flush=True)
+            mine: list[dict] = []
+            for ranks in args.ranks:
+                mine += run_on_ranks(__spec__.name, [ranks], ["--surface", str(path), "--repeats", str(args.repeats)],
+                                     bind_to=args.bind_to)
+                compare(mine)
+                report["rows"] = [r for r in report["rows"] if r["n"] != n] + mine
+                save_json(report, args.output)
+            path.unlink()
+    for row in report["rows"]:
+        print(f"{row['n']}² on {row['ranks']:2d} rank(s): {row['seconds']:7.2f} s"
+              + (f", speed-up {row['speedup']:5.2f}, efficiency {row['efficiency']:.2f}" if "speedup" in row else "")
+              + f", {row['iterations']} fine iterations, {row['bytes_per_node_per_rank']:.0f} B/node per rank"
+              + f", {row['fft_threads_per_rank']} FFT thread(s) per rank"
+              + ("" if row.get("agrees_with_one_rank", True) else ", FORCES DIFFER FROM ONE RANK"))
+
+
+if __name__ == "__main__":
+    main()

@@ -14,8 +14,13 @@ import pytest
 import xarray as xr
 from mpi4py import MPI
 
-from roughcontact.analysis import (cluster_statistics, contact_dimension, contact_force_statistics,
-                                   contact_renormalisation, force_spectrum)
+from roughcontact.analysis import (
+    cluster_statistics,
+    contact_dimension,
+    contact_force_statistics,
+    contact_renormalisation,
+    force_spectrum,
+)
 from roughcontact.farm import load_study, run_study
 from roughcontact.farm.store import TaskStore
 

@@ -19,6 +19,8 @@ class ContactState(NamedTuple):
     linear: int                   # inner linear iterations or CG iterations
     residual: float               # relative complementarity residual
     history: tuple                # residual history
+    slack: float = 0.0            # Σ p g over S before g is set to 0 there (all ranks): what an
+                                  # inexact solve leaves of complementarity (0 for an exact one)
 
 
 @dataclass(frozen=True)

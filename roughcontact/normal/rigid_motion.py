@@ -16,7 +16,10 @@ region bounds the step (and steers it along directions the contact set does
 not stiffen yet), the step below the imposed load is the one of Newton on
 log P (:func:`log_damping`), and an Armijo line search on Φ, or a halving of
 the load residual near the solution where Φ's decrease drowns in round-off,
-accepts it. Updating S and r together instead, as one active set, cycles on
+accepts it. Evaluations may be inexact (an inexact Newton: the CG resolves each
+state only as far as the step from it needs); Φ is then the inner problem's
+value at the state's forces, off by second-order terms only, and a state that
+meets the load tolerance is confirmed on one resolved for it. Updating S and r together instead, as one active set, cycles on
 rough surfaces with free rotations.
 
 Failure is never silent: a line search that finds no decrease, or too many
@@ -35,7 +38,7 @@ from .result import ContactState
 #: relative round-off of Φ = ½ p*ᵀ w − rᵀL: a rise below it is no rise
 PHI_ROUNDOFF = 1e-10
 
-Evaluate = Callable[[np.ndarray], tuple[ContactState, np.ndarray]]
+Evaluate = Callable[[np.ndarray, float], tuple[ContactState, np.ndarray]]
 Stiffness = Callable[[np.ndarray], tuple[np.ndarray, int]]
 
 
@@ -55,8 +58,13 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
     outer
         The free components Newton updates; the others are found by ``evaluate``.
     evaluate
-        ``evaluate(r) -> (state, r)``: the contact state with the components of
-        r not in ``free − outer`` imposed, and r completed.
+        ``evaluate(r, needed) -> (state, r)``: the contact state with the components of
+        r not in ``free − outer`` imposed, and r completed; ``needed`` is the relative load
+        residual the iteration stands at (inf before the first), from which an inexact
+        evaluation chooses how far to resolve the state (an inexact Newton); a state
+        that meets ``load_tol`` is evaluated again with ``needed = load_tol`` unless it
+        was resolved for it, and one the line search cannot improve is resolved for its
+        own residual before the search gives up.
     stiffness
         ``stiffness(S) -> (K, iterations)``: C_Sᵀ H_SS⁻¹ C_S over ``free`` (|free| × |free|).
     load_tol, max_newton
@@ -72,10 +80,17 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
     inner = [free.index(k) for k in free if k not in outer]
     radius = 1.0
     history: list[float] = []
-    state, rigid, phi, force = _evaluate(problem, rigid, free, outer, loads, evaluate)
+    needed = np.inf                                    # the load residual the state was resolved for
+    state, rigid, phi, force = _evaluate(problem, rigid, free, outer, loads, evaluate, needed)
     iterations, linear = state.outer, state.linear
     for newton in range(1, max_newton + 1):
         error = float(np.max(np.abs(force) / scale))
+        if error <= load_tol < needed:                 # met on a state resolved for a larger residual:
+            needed = load_tol                          # confirm on one resolved for load_tol
+            state, rigid, phi, force = _evaluate(problem, rigid, free, outer, loads, evaluate, needed)
+            iterations += state.outer
+            linear += state.linear
+            error = float(np.max(np.abs(force) / scale))
         history.append(error)
         if error <= load_tol:
             return state._replace(outer=iterations, linear=linear, history=tuple(history),
@@ -90,7 +105,7 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
         while True:
             trial = rigid.copy()
             trial[outer] = rigid[outer] + alpha * step
-            t_state, t_rigid, t_phi, t_force = _evaluate(problem, trial, free, outer, loads, evaluate)
+            t_state, t_rigid, t_phi, t_force = _evaluate(problem, trial, free, outer, loads, evaluate, error)
             iterations += t_state.outer
             linear += t_state.linear
             # Armijo on Φ; near the solution Φ's decrease is below its round-off, and a
@@ -101,6 +116,14 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
                     or alpha < 1e-6):
                 break
             alpha *= 0.5
+        if alpha < 1e-6 and needed > error:
+            # the state was resolved for the larger residual of the step before: its loads and Φ
+            # may be off by more than this step can gain. Resolve it for its own residual, go on
+            needed = error
+            state, rigid, phi, force = _evaluate(problem, rigid, free, outer, loads, evaluate, needed)
+            iterations += state.outer
+            linear += state.linear
+            continue
         if alpha < 1e-6:
             if error <= 1e3 * load_tol:
                 advice = ("the contact state is resolved more coarsely than load_tol: loosen it, or "
@@ -117,20 +140,27 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
         # the trust region follows Newton's own step: the log-P damping is not a sign of distrust
         moved = float(np.max(np.abs(alpha * newton_step) / units))
         radius = 4.0 * radius if alpha == 1.0 and moved >= 0.99 * radius else max(moved, 1e-3)
-        rigid, state, phi, force = t_rigid, t_state, t_phi, t_force
+        rigid, state, phi, force, needed = t_rigid, t_state, t_phi, t_force, error
     raise ConvergenceError(
         "LOAD_CONTROL_MAX_ITERATIONS",
         f"{max_newton} Newton steps on the rigid motion without meeting load_tol={load_tol:g} "
         f"(last relative load residual {history[-1]:.3e}); raise the solver's max_newton")
 
 
-def _evaluate(problem, rigid, free, outer, loads, evaluate):
-    """The state at r; Φ(r) and its outer gradient F = C_outerᵀ p − L_outer."""
-    state, rigid = evaluate(rigid)
+def _evaluate(problem, rigid, free, outer, loads, evaluate, needed):
+    """The state at r; Φ(r) and its outer gradient F = C_outerᵀ p − L_outer.
+
+    Φ is the value of the inner problem at the state's forces, pᵀw − ½ pᵀHp − r_freeᵀL_free
+    = ½ pᵀw − ½ pᵀg − r_freeᵀL_free (g the gap, Hp = g + w): ½ pᵀw alone is the same at the exact
+    solution, but off it by ½ pᵀg, first order in the inner residual, where the value is off by
+    second order terms on the contact set (p maximises it there). Without the correction an
+    inexact evaluation's Φ drowned Armijo's decrease.
+    """
+    state, rigid = evaluate(rigid, needed)
     w = problem.interpenetration(rigid)
     sums = problem.allsum(np.append(problem.columns[:, outer].T @ state.pressure, 0.5 * state.pressure @ w))
     force = sums[:-1] - loads[outer]
-    phi = float(sums[-1] - rigid[free] @ loads[free])
+    phi = float(sums[-1] - 0.5 * state.slack - rigid[free] @ loads[free])
     return state, rigid, phi, force
 
 

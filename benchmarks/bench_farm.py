@@ -154,7 +154,7 @@ def main() -> None:
     parser.add_argument("--cases", nargs="+", default=DEFAULT_CASES, choices=list(CASES))
     parser.add_argument("--no-bare", dest="bare", action="store_false",
                         help="skip the bare serial loop on one rank (the overhead per task)")
-    add_launch_arguments(parser, repeats=3, output="results/bench_farm.json")
+    add_launch_arguments(parser, repeats=3, output="results/bench_farm.json", binding=True)
     args = parser.parse_args()
     if args.worker:
         worker(args)
@@ -178,8 +178,10 @@ def main() -> None:
                      f"{row['farm_phase_efficiency']:.2f})" if "parallel_efficiency" in row else "")
                   + f", ranks busy {row['farm_utilisation_median']:.0%} of the farm phase"
                   + f", leaders write {row['write_MB_per_s']:.0f} MB/s ({row['task_files_MB']:.1f} MB)")
-    report = {"benchmark": "ensemble farm: run_study on 1 and 2 ranks against a bare serial loop of the solves",
-              "machine": {"cpus": os.cpu_count()}, "bind_to": args.bind_to, "repeats": args.repeats, "cases": CASES, "rows": summary}
+    report = {"benchmark": "ensemble farm: run_study on each rank count (and a bare serial loop of the solves "
+                           "on one rank unless --no-bare)",
+              "machine": {"cpus": os.cpu_count()}, "bind_to": args.bind_to, "repeats": args.repeats,
+              "cases": CASES, "rows": summary}
     save_json(report, args.output)
 
 

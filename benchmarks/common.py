@@ -51,15 +51,16 @@ def run_module(module: str, args: list[str], python: str | None = None) -> list[
     return [python or sys.executable, "-m", module, *args]
 
 
-def run_on_ranks(module: str, ranks: list[int], worker_args: list[str], bind_to: str = "none") -> list[dict]:
+def run_on_ranks(module: str, ranks: list[int], worker_args: list[str], bind_to: str = "launcher") -> list[dict]:
     """Rows written by ``module --worker --json FILE <worker_args>`` on each rank count.
 
     ``bind_to="core"`` pins each rank to one core (``--bind-to core``, which MPICH's Hydra and
     Open MPI both take): the FFT then runs one thread per rank, so a rank count measures ranks
-    alone; ``"none"`` leaves the ranks free to share the node's cores through the FFT threads.
+    alone; ``"launcher"`` passes no binding and leaves the placement to the launcher's default
+    (Hydra: none, so the ranks share the node's cores through the FFT threads; Open MPI binds).
     """
     rows = []
-    binding = ["--bind-to", bind_to] if bind_to != "none" else []
+    binding = ["--bind-to", bind_to] if bind_to != "launcher" else []
     for n in ranks:
         with tempfile.TemporaryDirectory() as tmp:
             out = Path(tmp) / "rows.json"
@@ -86,12 +87,15 @@ def write_rows(comm, rows: list[dict], path: str) -> None:
         Path(path).write_text(json.dumps(rows, indent=1))
 
 
-def add_launch_arguments(parser: argparse.ArgumentParser, repeats: int, output: str) -> None:
+def add_launch_arguments(parser: argparse.ArgumentParser, repeats: int, output: str, binding: bool = False) -> None:
     """The options every benchmark takes: rank counts, repeats, output, and the hidden
-    worker switches used by :func:`run_on_ranks`."""
+    worker switches used by :func:`run_on_ranks`; ``binding``: also ``--bind-to``, for the
+    benchmarks that pass it on to :func:`run_on_ranks`."""
     parser.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
-    parser.add_argument("--bind-to", choices=["none", "core"], default="none",
-                        help="core: one core per rank (one FFT thread each); none (default): the launcher's placement")
+    if binding:
+        parser.add_argument("--bind-to", choices=["launcher", "core"], default="launcher",
+                            help="core: one core per rank (one FFT thread each); launcher (default): no "
+                                 "binding asked, the launcher's own placement")
     parser.add_argument("--repeats", type=int, default=repeats)
     parser.add_argument("--output", default=output)
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)

@@ -131,7 +131,7 @@ class ActiveSetSolver(NormalSolver):
             rigid[free] = 0.0
             rigid[0] = self.winkler_approach(rigid, loads[0])
         return newton_on_motion(self.problem, rigid, free, free, loads,
-                                evaluate=lambda r, needed: (self._displacement(r), r),
+                                evaluate=lambda r, needed: (self._displacement(r), r),     # exact
                                 stiffness=lambda active: self._hessian(active, free),
                                 load_tol=self.settings.load_tol, max_newton=self.settings.max_newton)
 

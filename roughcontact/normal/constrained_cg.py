@@ -175,7 +175,9 @@ class ConstrainedCGSolver(NormalSolver):
         self.nested = NestedStart(problem, lambda coarse: ConstrainedCGSolver(coarse, coarse_settings)) \
             if nested and NestedStart.applies(problem) else None
         self._krylov = None                            # Krylov solves of the Hessian, free rotation
-        self._basis = None                             # their last solutions: (nodes of S, H_SS⁻¹ C_S)
+        # their last solutions (nodes of S, H_SS⁻¹ C_S), the next step's and the next load's start:
+        # 32 B per contact node of this rank, kept until the solver is released
+        self._basis = None
 
     @property
     def description(self) -> str:
@@ -187,6 +189,7 @@ class ConstrainedCGSolver(NormalSolver):
             self.nested.destroy()
         if self._krylov is not None:
             self._krylov.destroy()
+        self._basis = None
 
     # ---------------------------------------------------------------- solve
     def _solve(self, rigid, free, loads):
@@ -197,19 +200,22 @@ class ConstrainedCGSolver(NormalSolver):
         rigid[free] = motion[free]
         state = {"forces": forces}
 
-        def evaluate(motion, needed):
+        def resolution(needed):
             # an inexact Newton: the step from a load residual e (``needed``) leaves about e², so
             # the inner solve need resolve the moments only 1000 times below e², and below
             # load_tol once e² is (the state that meets load_tol is confirmed there). Resolving
             # every evaluation below load_tol, as before, solved the first steps 1000 times
             # tighter than their own residual was wide
-            tol = min(self.settings.tol, 1e-3 * max(needed ** 2, self.settings.load_tol))
-            result, motion = self._constrained_cg(motion, [0], loads, state["forces"], tol=tol)
+            return min(self.settings.tol, 1e-3 * max(needed ** 2, self.settings.load_tol))
+
+        def evaluate(motion, needed):
+            result, motion = self._constrained_cg(motion, [0], loads, state["forces"], tol=resolution(needed))
             state["forces"] = result.pressure.copy()
             return result, motion
 
         return newton_on_motion(self.problem, rigid, free, [1, 2], loads, evaluate, self._stiffness,
-                                load_tol=self.settings.load_tol, max_newton=self.settings.max_newton)
+                                load_tol=self.settings.load_tol, max_newton=self.settings.max_newton,
+                                resolution=resolution)
 
     def _constrained_cg(self, rigid, free, loads, forces, tol: float | None = None):
         """The bound-constrained CG with δz imposed (``free`` = []) or found from P (``free`` = [0])."""

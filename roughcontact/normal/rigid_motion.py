@@ -19,8 +19,9 @@ the load residual near the solution where Φ's decrease drowns in round-off,
 accepts it. Evaluations may be inexact (an inexact Newton: the CG resolves each
 state only as far as the step from it needs); Φ is then the inner problem's
 value at the state's forces, off by second-order terms only, and a state that
-meets the load tolerance is confirmed on one resolved for it. Updating S and r together instead, as one active set, cycles on
-rough surfaces with free rotations.
+meets the load tolerance is confirmed on one resolved for it. Updating S and r
+together instead, as one active set, cycles on rough surfaces with free
+rotations.
 
 Failure is never silent: a line search that finds no decrease, or too many
 Newton steps, raise :class:`~roughcontact.errors.ConvergenceError`.
@@ -35,16 +36,18 @@ from ..errors import ConvergenceError
 from .problem import NormalProblem
 from .result import ContactState
 
-#: relative round-off of Φ = ½ p*ᵀ w − rᵀL: a rise below it is no rise
+#: relative round-off of Φ = ½ pᵀw − ½ pᵀg − rᵀL: a rise below it is no rise
 PHI_ROUNDOFF = 1e-10
 
 Evaluate = Callable[[np.ndarray, float], tuple[ContactState, np.ndarray]]
 Stiffness = Callable[[np.ndarray], tuple[np.ndarray, int]]
+Resolution = Callable[[float], float]
 
 
 def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int], outer: list[int],
                      loads: np.ndarray, evaluate: Evaluate, stiffness: Stiffness,
-                     load_tol: float, max_newton: int) -> tuple[ContactState, np.ndarray]:
+                     load_tol: float, max_newton: int,
+                     resolution: Resolution | None = None) -> tuple[ContactState, np.ndarray]:
     """The contact state whose loads C_freeᵀ p equal ``loads[free]``, and its rigid motion.
 
     Parameters
@@ -61,16 +64,23 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
         ``evaluate(r, needed) -> (state, r)``: the contact state with the components of
         r not in ``free − outer`` imposed, and r completed; ``needed`` is the relative load
         residual the iteration stands at (inf before the first), from which an inexact
-        evaluation chooses how far to resolve the state (an inexact Newton); a state
-        that meets ``load_tol`` is evaluated again with ``needed = load_tol`` unless it
-        was resolved for it, and one the line search cannot improve is resolved for its
-        own residual before the search gives up.
+        evaluation chooses how far to resolve the state (an inexact Newton).
     stiffness
         ``stiffness(S) -> (K, iterations)``: C_Sᵀ H_SS⁻¹ C_S over ``free`` (|free| × |free|).
     load_tol, max_newton
         Stop when every outer load residual is within ``load_tol`` of P (moments:
         of P times the footprint's half-size); raise after ``max_newton`` steps.
+    resolution
+        For inexact evaluations, ``resolution(needed)``: the inner tolerance ``evaluate``
+        resolves a state to for ``needed`` (None: every evaluation is exact). A state that
+        meets ``load_tol`` but was resolved more loosely than for ``load_tol`` is evaluated
+        again for it before it is returned, and a state the line search cannot improve is
+        resolved for its own residual first when that is tighter than it was resolved for.
     """
+    def looser(resolved_for: float, than: float) -> bool:
+        """Whether a state resolved for ``resolved_for`` is resolved more loosely than for ``than``."""
+        return resolution is not None and resolution(resolved_for) > resolution(than)
+
     target = loads[outer]
     extent = problem.extent
     scale = np.array([loads[0], loads[0] * extent, loads[0] * extent])[outer]
@@ -85,8 +95,8 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
     iterations, linear = state.outer, state.linear
     for newton in range(1, max_newton + 1):
         error = float(np.max(np.abs(force) / scale))
-        if error <= load_tol < needed:                 # met on a state resolved for a larger residual:
-            needed = load_tol                          # confirm on one resolved for load_tol
+        if error <= load_tol and looser(needed, load_tol):   # met on a state resolved more loosely:
+            needed = load_tol                                # confirm on one resolved for load_tol
             state, rigid, phi, force = _evaluate(problem, rigid, free, outer, loads, evaluate, needed)
             iterations += state.outer
             linear += state.linear
@@ -116,9 +126,10 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
                     or alpha < 1e-6):
                 break
             alpha *= 0.5
-        if alpha < 1e-6 and needed > error:
+        if alpha < 1e-6 and looser(needed, error):
             # the state was resolved for the larger residual of the step before: its loads and Φ
             # may be off by more than this step can gain. Resolve it for its own residual, go on
+            # (each retry resolves more tightly than the last, so they end)
             needed = error
             state, rigid, phi, force = _evaluate(problem, rigid, free, outer, loads, evaluate, needed)
             iterations += state.outer

@@ -1,0 +1,114 @@
+"""The Newton on the rigid motion (normal/rigid_motion.py) with inexact evaluations, on a model
+whose answer is known in closed form: a bed of linear springs (Winkler), every node loaded.
+
+With p = k w(r), w = C r − gap0 and C = [1, −y, −x], the loads Cᵀp = L are linear in r:
+r = (CᵀC)⁻¹ (L/k + Cᵀ gap0). The evaluations find δz from Σp = P (the CG's inner
+component) and may be "inexact": an evaluation resolved for a load residual above
+``LOOSE`` returns forces whose moments point against the true ones (−0.1 of them), with
+the gap and the complementarity slack such forces have. That is the case the Newton's
+retry exists for: a step from such a state climbs Φ, so no step length is accepted, and
+only resolving the state again rescues the iteration.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from roughcontact.errors import ConvergenceError
+from roughcontact.normal.result import ContactState
+from roughcontact.normal.rigid_motion import newton_on_motion
+
+K = 2.0            # spring stiffness: H = I / K
+P = 10.0           # imposed load
+LOOSE = 0.05       # evaluations resolved for a residual above it are off
+LOAD_TOL = 1e-10
+
+
+class Springs:
+    """What newton_on_motion reads of a problem, for a 9 × 9 bed of springs on one rank."""
+
+    def __init__(self):
+        i, j = np.meshgrid(np.arange(9.0) - 4.0, np.arange(9.0) - 4.0, indexing="ij")
+        self.x, self.y = i.ravel(), j.ravel()
+        self.columns = np.column_stack([np.ones(self.x.size), -self.y, -self.x])
+        self.gap0 = 0.005 * self.x - 0.004 * self.y + 0.001 * np.cos(3.0 * self.x + self.y)
+        self.extent = 4.0
+        self.height_range = float(np.ptp(self.gap0))
+
+    def interpenetration(self, rigid):
+        return self.columns @ rigid - self.gap0
+
+    @staticmethod
+    def allsum(values):
+        return np.asarray(values, dtype=float)
+
+    def exact(self, loads):
+        """The rigid motion whose spring forces carry ``loads`` (the closed form above)."""
+        c = self.columns
+        return np.linalg.solve(c.T @ c, loads / K + c.T @ self.gap0)
+
+
+def evaluations(bed: Springs, loads: np.ndarray, log: list, loose: float):
+    """evaluate(r, needed) for the Newton: δz from Σp = P at the imposed rotation, forces off
+    when resolved for a residual above ``loose``; ``log`` gets (needed, rotation) of each call."""
+    outer = bed.columns[:, 1:]
+
+    def evaluate(rigid, needed):
+        log.append((needed, rigid[1:].copy()))
+        rigid = rigid.copy()
+        rigid[0] = 0.0
+        rigid[0] = (P / K - bed.interpenetration(rigid).sum()) / bed.x.size
+        w = bed.interpenetration(rigid)
+        forces = K * w
+        if needed > loose:
+            moments = outer.T @ forces - loads[1:]
+            forces = forces - 1.1 * outer @ np.linalg.solve(outer.T @ outer, moments)   # Σ unchanged
+        gap = forces / K - w
+        assert forces.min() > 0.0 and abs(forces.sum() - P) < 1e-12
+        state = ContactState(forces, np.ones(forces.size, bool), np.zeros(forces.size), 1, 1, 0.0, (),
+                             float(forces @ gap))
+        return state, rigid
+
+    return evaluate
+
+
+def newton(bed: Springs, loads: np.ndarray, log: list, resolution, loose: float = LOOSE):
+    stiffness = lambda active: (K * bed.columns.T @ bed.columns, 0)        # noqa: E731 - exact, every node
+    return newton_on_motion(bed, np.zeros(3), [0, 1, 2], [1, 2], loads, evaluations(bed, loads, log, loose),
+                            stiffness, load_tol=LOAD_TOL, max_newton=20, resolution=resolution)
+
+
+def test_a_state_resolved_too_loosely_is_resolved_again_when_no_step_is_accepted():
+    """The first evaluation (resolved for nothing yet) is off; the line search halves to 1e-6 and
+    finds neither a decrease of Φ nor a halved residual; the state is then resolved for its own
+    residual, and the Newton reaches the closed form. The state returned was confirmed at
+    load_tol."""
+    bed, log = Springs(), []
+    loads = np.array([P, 0.0, 0.0])
+    state, rigid = newton(bed, loads, log, resolution=lambda needed: needed)
+    first = log[0][1]
+    retried = [k for k, (needed, rotation) in enumerate(log[1:], 1)
+               if np.array_equal(rotation, first) and needed < np.inf]
+    assert retried, "no evaluation resolved the first state again"
+    assert log[-1][0] == LOAD_TOL                  # the returned state: confirmed for load_tol
+    np.testing.assert_allclose(rigid, bed.exact(loads), rtol=1e-9)
+    np.testing.assert_allclose(bed.columns.T @ state.pressure, loads, rtol=0, atol=LOAD_TOL * P * bed.extent)
+
+
+def test_exact_evaluations_are_not_repeated():
+    """Without a resolution (exact evaluations, the active set) nothing is evaluated twice:
+    the same model made exact converges with no evaluation at a rotation already seen."""
+    bed, log = Springs(), []
+    loads = np.array([P, 0.0, 0.0])
+    _, rigid = newton(bed, loads, log, resolution=None, loose=np.inf)
+    rotations = [tuple(rotation) for _, rotation in log]
+    assert len(set(rotations)) == len(rotations)
+    np.testing.assert_allclose(rigid, bed.exact(loads), rtol=1e-9)
+
+
+def test_without_resolving_again_the_search_gives_up():
+    """The same inexact model, but the Newton told its evaluations are exact: it cannot know
+    the state is off and raises the line search's error, which is what the retry prevents."""
+    bed, log = Springs(), []
+    with pytest.raises(ConvergenceError, match="no decrease"):
+        newton(bed, np.array([P, 0.0, 0.0]), log, resolution=None)

@@ -283,6 +283,31 @@ def test_free_rotation_resolves_loosely_first_and_returns_a_state_resolved_for_l
     problem.destroy()
 
 
+def test_a_trial_starts_from_the_forces_the_hessian_predicts(comm):
+    """On a fixed contact set the forces are linear in the rigid motion, with derivative
+    H_SS⁻¹ C_S (the Hessian's Krylov solutions): the start a Newton trial gets at θ + Δθ is the
+    solved state there to the Krylov solves' rtol (1e-3; bound 2e-3 of the change, the error
+    of three solves), where the last evaluation's forces are off by the whole change."""
+    from roughcontact.normal.constrained_cg import ConstrainedCGSolver
+
+    problem = NormalProblem(rough(64, seed=7), FLAT, comm, operator="fft")
+    load = 0.01 * problem.topography.nominal_area
+    loads = np.array([load, 0.0, 0.0])
+    with ConstrainedCGSolver(problem, CGSettings(tol=1e-12), nested=False) as solver:
+        r0 = np.array([0.0, 1e-3, -5e-4])
+        p, _ = solver._start(r0.copy(), [0], loads)
+        s0, r0 = solver._constrained_cg(r0, [0], loads, p)
+        solver._stiffness(s0.active)
+        r1 = r0 + np.array([0.0, 2e-7, 1e-7])
+        s1, r1 = solver._constrained_cg(r1, [0], loads, s0.pressure)
+        predicted = solver._predicted(r0, s0.pressure, r1)
+    assert np.array_equal(s0.active, s1.active)                     # the set held: linear there
+    change = np.sqrt(problem.allsum(np.sum((s1.pressure - s0.pressure) ** 2)))
+    error = np.sqrt(problem.allsum(np.sum((predicted - s1.pressure) ** 2)))
+    assert change > 0.0 and error <= 2e-3 * change
+    problem.destroy()
+
+
 @pytest.mark.parametrize("tol", [1e-3, 1e-6, 1e-11])
 def test_complementary_energy_of_an_inexact_state_is_the_inner_value(comm, tol):
     """Φ of a state the CG resolved only to ``tol`` (load control at an imposed rotation, what the

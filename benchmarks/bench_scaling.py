@@ -170,7 +170,6 @@ def main() -> None:
         return
     from roughcontact.surfaces import write_topography
 
-    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")     # one BLAS thread per rank
     report = {"benchmark": "strong scaling of one normal solve (large-grid scene, surface and result by rows)",
               "machine": {"cpus": os.cpu_count()}, "bind_to": args.bind_to, "repeats": args.repeats,
               "invariant_rtol": INVARIANT_RTOL, "rows": []}

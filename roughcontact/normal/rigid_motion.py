@@ -90,23 +90,29 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
     inner = [free.index(k) for k in free if k not in outer]
     radius = 1.0
     history: list[float] = []
+    spent = {"outer": 0, "linear": 0}                  # evaluations and linear iterations, all counted
+
+    def evaluated(r, needed):
+        """(state, r, Φ, F) at r resolved for ``needed``, its iterations counted."""
+        result = _evaluate(problem, r, free, outer, loads, evaluate, needed)
+        spent["outer"] += result[0].outer
+        spent["linear"] += result[0].linear
+        return result
+
     needed = np.inf                                    # the load residual the state was resolved for
-    state, rigid, phi, force = _evaluate(problem, rigid, free, outer, loads, evaluate, needed)
-    iterations, linear = state.outer, state.linear
+    state, rigid, phi, force = evaluated(rigid, needed)
     for newton in range(1, max_newton + 1):
         error = float(np.max(np.abs(force) / scale))
         if error <= load_tol and looser(needed, load_tol):   # met on a state resolved more loosely:
             needed = load_tol                                # confirm on one resolved for load_tol
-            state, rigid, phi, force = _evaluate(problem, rigid, free, outer, loads, evaluate, needed)
-            iterations += state.outer
-            linear += state.linear
+            state, rigid, phi, force = evaluated(rigid, needed)
             error = float(np.max(np.abs(force) / scale))
         history.append(error)
         if error <= load_tol:
-            return state._replace(outer=iterations, linear=linear, history=tuple(history),
+            return state._replace(outer=spent["outer"], linear=spent["linear"], history=tuple(history),
                                   residual=max(state.residual, error)), rigid
         matrix, its = stiffness(state.active)
-        linear += its
+        spent["linear"] += its
         hessian = _schur(matrix, position, inner)
         newton_step = _newton_step(hessian, force, units, radius)
         step = newton_step * (log_damping(force[0] + target[0], target[0]) if outer[0] == 0 else 1.0)
@@ -115,9 +121,7 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
         while True:
             trial = rigid.copy()
             trial[outer] = rigid[outer] + alpha * step
-            t_state, t_rigid, t_phi, t_force = _evaluate(problem, trial, free, outer, loads, evaluate, error)
-            iterations += t_state.outer
-            linear += t_state.linear
+            t_state, t_rigid, t_phi, t_force = evaluated(trial, error)
             # Armijo on Φ; near the solution Φ's decrease is below its round-off, and a
             # decrease of the load residual itself is accepted instead — only while Φ does not
             # rise above its round-off: the two criteria otherwise take turns and cycle
@@ -131,9 +135,7 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
             # may be off by more than this step can gain. Resolve it for its own residual, go on
             # (each retry resolves more tightly than the last, so they end)
             needed = error
-            state, rigid, phi, force = _evaluate(problem, rigid, free, outer, loads, evaluate, needed)
-            iterations += state.outer
-            linear += state.linear
+            state, rigid, phi, force = evaluated(rigid, needed)
             continue
         if alpha < 1e-6:
             if error <= 1e3 * load_tol:

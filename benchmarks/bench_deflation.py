@@ -28,6 +28,10 @@ so κ is the largest eigenvalue. Rows ``schur<k>`` precondition with a
 better approximation of H_SS⁻¹ = B_SS − B_SO B_OO⁻¹ B_OS (B = C⁻¹, O the
 nodes outside S): B_OO⁻¹ by k terms of its Neumann series at step
 1.5/max(B) — k + 1 periodic FFT pairs per application instead of one.
+Rows ``edge<share>`` precondition with M less the edge correction of the
+package (:mod:`roughcontact.operators.preconditioner`, e = share · min(max(κ, 0),
+EDGE_CAP · C⁻¹_ii)) at several shares; its weights cost one periodic
+product per set.
 
     python -m benchmarks.bench_deflation [--sizes 256 512 1024 2048] [--max-vectors 120]
         [--output results/bench_deflation.json]
@@ -51,6 +55,8 @@ from benchmarks.common import (
 )
 
 TOL = 1e-8
+#: the shares of the edge term the ``edge<share>`` rows remove (at the package's cap)
+EDGE_SHARES = (0.5, 0.7, 0.8, 0.9)
 
 
 def pcg(apply, precondition, rhs, deflation=None, limit: int = 1000) -> int:
@@ -124,6 +130,16 @@ def worker(args) -> None:
             emit(comm, rows, {**base, "space": name, "vectors": int(basis.shape[1]),
                               "iterations": pcg(apply, precondition, rhs, (basis, az, inverse))})
         emit(comm, rows, {**base, "space": "spectrum", **spectrum(apply, precondition, contact, result.contact)})
+        for share in EDGE_SHARES:
+            edge = flexibility.preconditioner.edge_weights(contact, share=share)
+
+            def corrected(values, edge=edge):
+                return precondition(values) - edge * values
+
+            ritz = lanczos_ritz(apply, corrected, np.random.default_rng(1).standard_normal(contact.size), 40)
+            emit(comm, rows, {**base, "space": f"edge{share:g}", "vectors": 0,
+                              "iterations": pcg(apply, corrected, rhs),
+                              "ritz_min": float(ritz[0]), "ritz_max": float(ritz[-1]), "periodic_pairs": 1})
         for terms in (1, 4):
             schur = schur_preconditioner(flexibility, contact, result.contact, terms)
             ritz = lanczos_ritz(apply, schur, np.random.default_rng(1).standard_normal(contact.size), 40)

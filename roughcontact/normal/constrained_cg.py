@@ -17,8 +17,9 @@ preconditioner:
    over S and the gap g the remainder;
 2. the free set F is S and the nodes outside it that interpenetrate
    (g < 0); the search direction is the preconditioned gap on F,
-   z = M g (M: the Fourier preconditioner of the set,
-   :mod:`~roughcontact.operators.preconditioner`), with its mean over F
+   z = M g (M: the Fourier preconditioner of the set with its edge
+   correction, :mod:`~roughcontact.operators.preconditioner`, the
+   correction's weights made again whenever F changed), with its mean over F
    removed so that Σ p stays P, made conjugate to the previous one unless F
    changed by more than a fraction ``restart``;
 3. the step α = gᵀz / dᵀHd (one FFT product per iteration), then
@@ -54,6 +55,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import ConvergenceError, InputError
+from ..operators.preconditioner import EDGE_SHARE
 from .nested import COARSE_TOL, NestedStart
 from .problem import NormalProblem
 from .result import ContactState
@@ -62,6 +64,9 @@ from .solver import NormalSolver
 
 PRECONDITIONERS = ("fourier", "none")
 PRECISIONS = ("mixed", "double")
+#: the residual (relative to the scale of w) below which single-precision products can stop it
+#: falling: they stalled it at 1e-7 to 8e-7 near full contact (512²), so 1e-5 leaves a factor 10
+SINGLE_FLOOR = 1e-5
 
 
 @dataclass(frozen=True)
@@ -105,6 +110,15 @@ class CGSettings:
     load_tol, max_newton
         Free rotation: the moment residual allowed (relative to P times the
         footprint's half-size) and the Newton steps on (θx, θy) (:mod:`.rigid_motion`).
+    edge_share
+        The share of the Fourier preconditioner's edge term removed on the
+        boundary nodes of the free set (:mod:`~roughcontact.operators.preconditioner`;
+        0 for the plain R_S C⁻¹ R_Sᵀ). Its weights cost one periodic product
+        on each iteration whose free set changed. Whole solves of the
+        large-grid scene (fine iterations, 0 → 0.8): 256² 16 → 14,
+        512² 19 → 15, 1024² 22 → 17, 2048² 35 → 27, 4096² 54 → 42; near
+        full contact (Δ = 2.5, 1 E*) 46 → 34, 70 → 44, 81 → 71 (256² to
+        1024²). docs/solvers.md, "The edge correction".
     precision
         ``"mixed"`` (default): the product H d of each search direction, the
         product H c of the forces a cut restores, and the preconditioner in
@@ -117,8 +131,10 @@ class CGSettings:
         always measured on a double H p, so the precision cannot loosen it.
         Where that fails the rest of the solve is taken in double: when the
         residual has not reached a new lowest value for ``renew``
-        iterations (near full contact, where the single products stall the
-        residual at ~1e-7), or when the exact confirmation of convergence
+        iterations once it is below SINGLE_FLOOR (1e-5; near full contact the
+        single products stall it at ~1e-7; above that a rise is the contact
+        set settling) or for 4 × ``renew`` iterations anywhere, or when the
+        exact confirmation of convergence
         disagrees with the updated gap (tolerances near 1e-11).
         ``"double"``: every product in double precision.
     """
@@ -132,6 +148,7 @@ class CGSettings:
     load_tol: float = 1e-8
     max_newton: int = 50
     precision: str = "mixed"
+    edge_share: float = EDGE_SHARE
 
     def __post_init__(self):
         if self.preconditioner not in PRECONDITIONERS:
@@ -139,6 +156,9 @@ class CGSettings:
                                                f"got {self.preconditioner!r}")
         if self.precision not in PRECISIONS:
             raise InputError("precision", f"must be one of {', '.join(PRECISIONS)}, got {self.precision!r}")
+        if not 0.0 <= self.edge_share < 1.0:
+            raise InputError("edge_share", f"must be in [0, 1) (1 removes the whole edge term and leaves "
+                                           f"isolated nodes without a scaling), got {self.edge_share!r}")
 
 
 class ConstrainedCGSolver(NormalSolver):
@@ -267,6 +287,7 @@ class ConstrainedCGSolver(NormalSolver):
         # arrays of changing sizes between them) fragmented the heap of each rank
         last_mask, changed, in_contact = (np.zeros(forces.size, dtype=bool) for _ in range(3))
         gap = np.empty_like(forces)
+        edge = None                                    # the preconditioner's edge weights on the free set
         history: list[float] = []
         since_refresh = 0
         best, since_best = np.inf, 0                   # the lowest residual, iterations since it
@@ -283,8 +304,13 @@ class ConstrainedCGSolver(NormalSolver):
             history.append(residual)
             best, since_best = (residual, 0) if residual < best else (best, since_best + 1)
             # single-precision products stalled (no new lowest residual in `renew` iterations: near
-            # full contact at 512² the residual rose from 1e-7 to 8e-7, 949 iterations against 54)
-            stalled = single and since_best >= settings.renew
+            # full contact at 512² the residual rose from 1e-7 to 8e-7, 949 iterations against 54).
+            # Above SINGLE_FLOOR a rise is the contact set settling, not the precision: at 4096²
+            # the residual rose from 2.0e-4 to 7.7e-4 over 6 iterations and fell again, and taking
+            # the remaining 47 products in double cost 31.7 s of a 91.7 s solve. Four times as long
+            # without a new lowest value is a stall wherever it stands
+            stalled = single and since_best >= settings.renew and (best <= SINGLE_FLOOR
+                                                                   or since_best >= 4 * settings.renew)
             if residual <= tol or stalled:
                 if since_refresh == 0 and residual <= tol:
                     rigid[free] = approach
@@ -309,11 +335,19 @@ class ConstrainedCGSolver(NormalSolver):
                 previous = None
             if previous is None:
                 since_restart, changed_since = 0, False
+            if edge is None or counts[0] > 0:
+                # the weights of the set as it is now: kept from the last restart while the set
+                # moved, they let the residual wander between 1e-4 and 7e-4 for 30 iterations at
+                # 4096² (61 fine iterations against 42)
+                edge = self._edge_weights(working, single)
             g = gap[working]
-            z = self._precondition(g, working, single)
-            if load is not None:
-                z -= _mean(pb, z)                      # keep Σ p = P along the direction
-            gz = float(pb.allsum(g @ z))
+            z, gz = self._direction(g, working, single, edge, load is not None)
+            if not gz > 0.0 and self._corrected:
+                # the corrected preconditioner is positive definite only as far as C⁻¹'s positive
+                # far entries allow; the plain one always is (never seen to fire in a solve). The
+                # conjugate directions restart: the last ones were made with the corrected one
+                z, gz = self._direction(g, working, single, np.zeros(0), load is not None)
+                previous = None
             if previous is None or gz <= 0.0:
                 step_direction = z
             else:
@@ -373,7 +407,8 @@ class ConstrainedCGSolver(NormalSolver):
             # load_tol): rtol 1e-6 instead of 1e-11 took a 12-load sweep at 65² from 1.9 to 1.3 s;
             # 1e-3 instead of 1e-6 halved these solves' time in a 12-load sweep at 257² with the
             # same Newton steps, where 1e-2 took more steps (69 evaluations against 61)
-            self._krylov = KSPSubsolver(pb.flexibility, prefix="normal_rotation_", rtol=1e-3)
+            self._krylov = KSPSubsolver(pb.flexibility, prefix="normal_rotation_", rtol=1e-3,
+                                        edge_share=self.settings.edge_share)
         self._krylov.set_active(active)
         nodes = np.flatnonzero(active)
         columns = pb.columns[nodes]
@@ -408,10 +443,36 @@ class ConstrainedCGSolver(NormalSolver):
             rigid[0] = self.winkler_approach(rigid, loads[0])
         return np.maximum(pb.interpenetration(rigid), 0.0) / pb.flexibility.diagonal, rigid
 
-    def _precondition(self, g: np.ndarray, nodes: np.ndarray, single: bool) -> np.ndarray:
+    @property
+    def _corrected(self) -> bool:
+        """Whether the preconditioner carries the edge correction (the same on every rank)."""
+        return self.settings.preconditioner == "fourier" and self.settings.edge_share > 0.0
+
+    def _edge_weights(self, nodes: np.ndarray, single: bool) -> np.ndarray:
+        """The edge correction's weights on the free set ``nodes`` (collective; empty without
+        the correction)."""
+        if not self._corrected:
+            return np.zeros(0)
+        return self.problem.flexibility.preconditioner.edge_weights(nodes, single, self.settings.edge_share)
+
+    def _direction(self, g: np.ndarray, nodes: np.ndarray, single: bool, edge: np.ndarray,
+                   loaded: bool) -> tuple[np.ndarray, float]:
+        """(z, gᵀz): the preconditioned gap on the free set ``nodes``, less its mean under load
+        control (``loaded``) so that Σ p stays P along it."""
+        z = self._precondition(g, nodes, single, edge)
+        if loaded:
+            z -= _mean(self.problem, z)
+        return z, float(self.problem.allsum(g @ z))
+
+    def _precondition(self, g: np.ndarray, nodes: np.ndarray, single: bool, edge: np.ndarray) -> np.ndarray:
+        """z = M g on the free set ``nodes``: the Fourier preconditioner less the edge weights
+        ``edge`` (on the same nodes; empty: none)."""
         if self.settings.preconditioner == "none":
             return g.copy()
-        return self.problem.flexibility.precondition_nodes(g, nodes, single)
+        z = self.problem.flexibility.precondition_nodes(g, nodes, single)
+        if edge.size:                                  # this rank's nodes; no collective inside
+            z -= edge * g
+        return z
 
     def _state(self, forces, gap, iterations, residual, history) -> ContactState:
         contact = forces > 0.0

@@ -118,7 +118,10 @@ class CGSettings:
         large-grid scene (fine iterations, 0 → 0.8): 256² 16 → 14,
         512² 19 → 15, 1024² 22 → 17, 2048² 35 → 27, 4096² 54 → 42; near
         full contact (Δ = 2.5, 1 E*) 46 → 34, 70 → 44, 81 → 71 (256² to
-        1024²). docs/solvers.md, "The edge correction".
+        1024²). Where the residual reaches no new lowest value for 2 × ``renew``
+        iterations above SINGLE_FLOOR (the free set cycling: near full contact
+        at 1024², Δ = 2.8) the rest of the solve takes the plain one.
+        docs/solvers.md, "The edge correction".
     precision
         ``"mixed"`` (default): the product H d of each search direction, the
         product H c of the forces a cut restores, and the preconditioner in
@@ -288,6 +291,7 @@ class ConstrainedCGSolver(NormalSolver):
         last_mask, changed, in_contact = (np.zeros(forces.size, dtype=bool) for _ in range(3))
         gap = np.empty_like(forces)
         edge = None                                    # the preconditioner's edge weights on the free set
+        correcting = self._corrected                   # the edge correction in use (dropped where it stalls)
         history: list[float] = []
         since_refresh = 0
         best, since_best = np.inf, 0                   # the lowest residual, iterations since it
@@ -311,6 +315,14 @@ class ConstrainedCGSolver(NormalSolver):
             # without a new lowest value is a stall wherever it stands
             stalled = single and since_best >= settings.renew and (best <= SINGLE_FLOOR
                                                                    or since_best >= 4 * settings.renew)
+            if correcting and since_best >= 2 * settings.renew and best > SINGLE_FLOOR:
+                # above the precision's floor no new lowest residual in 2 × `renew` iterations is
+                # the free set cycling; near full contact on a rough surface (1024², Δ = 2.8, 1 E*)
+                # the corrected preconditioner let 1-3 % of the set flip every iteration for 200
+                # iterations (232 against 84 plain): the plain one from here, directions restarted
+                # (105). After `renew` alone it also fired at 1024², Δ = 2.5, where the correction
+                # gets through a slow stretch (88 iterations against 71 without the rule, 81 plain)
+                correcting, edge, previous, since_best = False, None, None, 0
             if residual <= tol or stalled:
                 if since_refresh == 0 and residual <= tol:
                     rigid[free] = approach
@@ -339,10 +351,10 @@ class ConstrainedCGSolver(NormalSolver):
                 # the weights of the set as it is now: kept from the last restart while the set
                 # moved, they let the residual wander between 1e-4 and 7e-4 for 30 iterations at
                 # 4096² (61 fine iterations against 42)
-                edge = self._edge_weights(working, single)
+                edge = self._edge_weights(working, single, correcting)
             g = gap[working]
             z, gz = self._direction(g, working, single, edge, load is not None)
-            if not gz > 0.0 and self._corrected:
+            if not gz > 0.0 and correcting:
                 # the corrected preconditioner is positive definite only as far as C⁻¹'s positive
                 # far entries allow; the plain one always is (never seen to fire in a solve). The
                 # conjugate directions restart: the last ones were made with the corrected one
@@ -448,10 +460,10 @@ class ConstrainedCGSolver(NormalSolver):
         """Whether the preconditioner carries the edge correction (the same on every rank)."""
         return self.settings.preconditioner == "fourier" and self.settings.edge_share > 0.0
 
-    def _edge_weights(self, nodes: np.ndarray, single: bool) -> np.ndarray:
+    def _edge_weights(self, nodes: np.ndarray, single: bool, correcting: bool) -> np.ndarray:
         """The edge correction's weights on the free set ``nodes`` (collective; empty without
-        the correction)."""
-        if not self._corrected:
+        the correction, ``correcting`` False)."""
+        if not correcting:
             return np.zeros(0)
         return self.problem.flexibility.preconditioner.edge_weights(nodes, single, self.settings.edge_share)
 

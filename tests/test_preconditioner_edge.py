@@ -144,3 +144,32 @@ def test_the_correction_lowers_the_condition_of_the_preconditioned_contact_block
         conditions.append(values[-1] / values[0])
     assert conditions[1] <= 0.8 * conditions[0]
     problem.destroy()
+
+
+def test_the_active_sets_krylov_solves_take_the_share_from_the_options_database(comm):
+    """``fourier_edge_share`` under the solver's prefix sets the PETSc PC's share: 0 gives the plain
+    preconditioner (no weights), the default the corrected one, and a share outside [0, 1) is
+    named in one line. At 0.3 E* the contact set (about half the 64² grid) is past the explicit
+    blocks' size, so the Krylov solves run matrix-free with the Fourier PC. The active set's
+    answer is the same either way (its Krylov solves are exact to rtol 1e-11; the forces to
+    1e-9 of the largest)."""
+    from roughcontact.normal import NormalProblem, make_solver
+    from roughcontact.surfaces import fourier_surface
+
+    n = 64
+    topo = fourier_surface(n, 1.0 / n, hurst=0.8, rms_slope=1.0, rolloff_wavelength=1.0,
+                           short_cutoff_wavelength=8.0 / n, periodic=False, seed=3)
+    problem = NormalProblem(topo, Interface(Material(1.0, 0.0)), comm, operator="fft")
+    results = {}
+    for share in (None, 0.0):
+        options = {} if share is None else {"options": {"fourier_edge_share": share}}
+        with make_solver(problem, "ksp", **options) as solver:
+            results[share] = solver.solve_load(0.3, rotation=(0.0, 0.0))
+            pc = solver.inner.fourier
+            assert pc.edge_share == (EDGE_SHARE if share is None else 0.0)
+            assert (pc.edge is None) == (share == 0.0)
+    scale = results[None].force.max()
+    np.testing.assert_allclose(results[0.0].force, results[None].force, rtol=0, atol=1e-9 * scale)
+    with pytest.raises(InputError, match="fourier_edge_share"):
+        make_solver(problem, "ksp", options={"fourier_edge_share": 1.5})
+    problem.destroy()

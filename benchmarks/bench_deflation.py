@@ -134,7 +134,7 @@ def worker(args) -> None:
             edge = flexibility.preconditioner.edge_weights(contact, share=share)
 
             def corrected(values, edge=edge):
-                return precondition(values) - edge * values
+                return flexibility.precondition_nodes(values, contact, edge=edge)
 
             ritz = lanczos_ritz(apply, corrected, np.random.default_rng(1).standard_normal(contact.size), 40)
             emit(comm, rows, {**base, "space": f"edge{share:g}", "vectors": 0,

@@ -290,7 +290,7 @@ class ConstrainedCGSolver(NormalSolver):
         # arrays of changing sizes between them) fragmented the heap of each rank
         last_mask, changed, in_contact = (np.zeros(forces.size, dtype=bool) for _ in range(3))
         gap = np.empty_like(forces)
-        edge = None                                    # the preconditioner's edge weights on the free set
+        edge, stale = None, True                       # the edge weights on the free set (None: none)
         correcting = self._corrected                   # the edge correction in use (dropped where it stalls)
         history: list[float] = []
         since_refresh = 0
@@ -322,7 +322,7 @@ class ConstrainedCGSolver(NormalSolver):
                 # iterations (232 against 84 plain): the plain one from here, directions restarted
                 # (105). After `renew` alone it also fired at 1024², Δ = 2.5, where the correction
                 # gets through a slow stretch (88 iterations against 71 without the rule, 81 plain)
-                correcting, edge, previous, since_best = False, None, None, 0
+                correcting, stale, previous, since_best = False, True, None, 0
             if residual <= tol or stalled:
                 if since_refresh == 0 and residual <= tol:
                     rigid[free] = approach
@@ -347,18 +347,18 @@ class ConstrainedCGSolver(NormalSolver):
                 previous = None
             if previous is None:
                 since_restart, changed_since = 0, False
-            if edge is None or counts[0] > 0:
+            if stale or counts[0] > 0:
                 # the weights of the set as it is now: kept from the last restart while the set
                 # moved, they let the residual wander between 1e-4 and 7e-4 for 30 iterations at
                 # 4096² (61 fine iterations against 42)
-                edge = self._edge_weights(working, single, correcting)
+                edge, stale = self._edge_weights(working, single, correcting), False
             g = gap[working]
             z, gz = self._direction(g, working, single, edge, load is not None)
             if not gz > 0.0 and correcting:
                 # the corrected preconditioner is positive definite only as far as C⁻¹'s positive
                 # far entries allow; the plain one always is (never seen to fire in a solve). The
                 # conjugate directions restart: the last ones were made with the corrected one
-                z, gz = self._direction(g, working, single, np.zeros(0), load is not None)
+                z, gz = self._direction(g, working, single, None, load is not None)
                 previous = None
             if previous is None or gz <= 0.0:
                 step_direction = z
@@ -460,14 +460,14 @@ class ConstrainedCGSolver(NormalSolver):
         """Whether the preconditioner carries the edge correction (the same on every rank)."""
         return self.settings.preconditioner == "fourier" and self.settings.edge_share > 0.0
 
-    def _edge_weights(self, nodes: np.ndarray, single: bool, correcting: bool) -> np.ndarray:
-        """The edge correction's weights on the free set ``nodes`` (collective; empty without
-        the correction, ``correcting`` False)."""
+    def _edge_weights(self, nodes: np.ndarray, single: bool, correcting: bool) -> np.ndarray | None:
+        """The edge correction's weights on the free set ``nodes`` (collective; None without the
+        correction, ``correcting`` False)."""
         if not correcting:
-            return np.zeros(0)
+            return None
         return self.problem.flexibility.preconditioner.edge_weights(nodes, single, self.settings.edge_share)
 
-    def _direction(self, g: np.ndarray, nodes: np.ndarray, single: bool, edge: np.ndarray,
+    def _direction(self, g: np.ndarray, nodes: np.ndarray, single: bool, edge: np.ndarray | None,
                    loaded: bool) -> tuple[np.ndarray, float]:
         """(z, gᵀz): the preconditioned gap on the free set ``nodes``, less its mean under load
         control (``loaded``) so that Σ p stays P along it."""
@@ -476,15 +476,13 @@ class ConstrainedCGSolver(NormalSolver):
             z -= _mean(self.problem, z)
         return z, float(self.problem.allsum(g @ z))
 
-    def _precondition(self, g: np.ndarray, nodes: np.ndarray, single: bool, edge: np.ndarray) -> np.ndarray:
+    def _precondition(self, g: np.ndarray, nodes: np.ndarray, single: bool,
+                      edge: np.ndarray | None) -> np.ndarray:
         """z = M g on the free set ``nodes``: the Fourier preconditioner less the edge weights
-        ``edge`` (on the same nodes; empty: none)."""
+        ``edge`` (on the same nodes; None: none)."""
         if self.settings.preconditioner == "none":
             return g.copy()
-        z = self.problem.flexibility.precondition_nodes(g, nodes, single)
-        if edge.size:                                  # this rank's nodes; no collective inside
-            z -= edge * g
-        return z
+        return self.problem.flexibility.precondition_nodes(g, nodes, single, edge)
 
     def _state(self, forces, gap, iterations, residual, history) -> ContactState:
         contact = forces > 0.0

@@ -47,11 +47,8 @@ class FourierPC:
             if self.edge_share > 0.0 else None
 
     def apply(self, pc, x, y):
-        r = x.getArray(readonly=True)
-        z = y.getArray()
-        z[:] = self.flexibility.precondition_nodes(r, self.nodes)
-        if self.edge is not None:
-            z -= self.edge * r
+        y.getArray()[:] = self.flexibility.precondition_nodes(x.getArray(readonly=True), self.nodes,
+                                                              edge=self.edge)
 
 
 class KSPSubsolver(ContactSetSubsolver):

@@ -152,10 +152,12 @@ class Flexibility:
         slab = self.layout.to_slab(values, out=self._slab)
         return self.layout.from_slab(self.convolution.apply(slab, single)).astype(float, copy=False)
 
-    def precondition_nodes(self, values: np.ndarray, nodes: np.ndarray, single: bool = False) -> np.ndarray:
+    def precondition_nodes(self, values: np.ndarray, nodes: np.ndarray, single: bool = False,
+                           edge: np.ndarray | None = None) -> np.ndarray:
         """z = [C⁻¹ (values on S, 0 elsewhere)]_S: the Fourier preconditioner of H_SS, S given by
-        this rank's node indices, ``values`` and result on S only; ``single`` as :meth:`product`."""
-        return self.preconditioner.apply_nodes(values, nodes, single)
+        this rank's node indices, ``values`` and result on S only; ``single`` as :meth:`product`;
+        ``edge``: the edge correction's weights on S, subtracted (:mod:`.preconditioner`)."""
+        return self.preconditioner.apply_nodes(values, nodes, single, edge)
 
     def release_buffers(self) -> None:
         """Free the transform buffers of the operator and its preconditioner until their next use."""

@@ -113,28 +113,35 @@ class FourierPreconditioner:
         self.inverse_diagonal, self.inverse_row_sum = (float(v) for v in flexibility.comm.allreduce(
             np.array([column[0, 0] if first else 0.0, column.sum()])))
 
-    def apply_nodes(self, values: np.ndarray, nodes: np.ndarray, single: bool = False) -> np.ndarray:
-        """R_S C⁻¹ R_Sᵀ on S given by this rank's node indices; ``values`` and the result on S;
-        ``single``: in single precision (:mod:`.convolution`), the result still float64."""
-        self._slab.fill(0.0)
-        positions = self.layout.positions[nodes]
-        self._slab.reshape(-1)[positions] = values
-        smoothed = self.convolution.apply(self._slab, single)
-        return smoothed.reshape(-1)[positions].astype(float, copy=False)
+    def apply_nodes(self, values: np.ndarray, nodes: np.ndarray, single: bool = False,
+                    edge: np.ndarray | None = None) -> np.ndarray:
+        """R_S C⁻¹ R_Sᵀ on S given by this rank's node indices, less ``edge`` ∘ values when the
+        edge correction's weights on S are given (:meth:`edge_weights`); ``values`` and the
+        result on S; ``single``: in single precision (:mod:`.convolution`), the result still
+        float64."""
+        smoothed = self._restricted(values, nodes, single)
+        if edge is not None:
+            smoothed -= edge * values
+        return smoothed
 
     def edge_weights(self, nodes: np.ndarray, single: bool = False, share: float = EDGE_SHARE) -> np.ndarray:
         """The edge correction's weights on S, given by this rank's node indices (float64):
         e_i = share · min(max(κ_i, 0), EDGE_CAP · A_ii), κ_i = Σ_{j∉S} (−A_ij) = (A 1_S)_i − a₀,
         so that R_S C⁻¹ R_Sᵀ g − e ∘ g is the corrected preconditioner on S. One periodic product
         (in single precision with ``single``); collective."""
-        self._slab.fill(0.0)
-        positions = self.layout.positions[nodes]
-        self._slab.reshape(-1)[positions] = 1.0
-        weights = self.convolution.apply(self._slab, single).reshape(-1)[positions].astype(float, copy=False)
+        weights = self._restricted(1.0, nodes, single)                     # (A 1_S)_i on S
         weights -= self.inverse_row_sum
         np.clip(weights, 0.0, EDGE_CAP * self.inverse_diagonal, out=weights)
         weights *= share
         return weights
+
+    def _restricted(self, values, nodes: np.ndarray, single: bool) -> np.ndarray:
+        """[C⁻¹ (values on S, 0 elsewhere)]_S as float64, a new array (collective)."""
+        self._slab.fill(0.0)
+        positions = self.layout.positions[nodes]
+        self._slab.reshape(-1)[positions] = values
+        smoothed = self.convolution.apply(self._slab, single).reshape(-1)[positions]    # a copy
+        return smoothed.astype(float, copy=False)
 
 
 def _min():

@@ -7,9 +7,10 @@ divided by the time of one forward and inverse real 2-D FFT of the padded
 grid (``scipy.fft.rfft2`` + ``irfft2`` of (Lx, Ly) in double, the same
 threads, median of 15, measured once per grid just before its solves), so
 the ratio depends less on how busy the machine is. For each grid and each
-precision of the CG (``CGSettings.precision``) and share of the
-preconditioner's edge correction (``--edge-shares``, ``CGSettings.edge_share``;
-the shares' runs alternate) the rows give that ratio,
+precision of the CG (``CGSettings.precision``), share of the
+preconditioner's edge correction (``--edge-shares``, ``CGSettings.edge_share``)
+and share of the gap up to which cut forces' far fields wait (``--defers``,
+``CGSettings.defer``; the settings' runs alternate) the rows give that ratio,
 the fine and coarse iterations, the fine grid's FFT products taken in double
 and in single precision, and the residual measured on a double product.
 
@@ -21,7 +22,7 @@ benchmarks/bench_tangential.py's scene (``benchmarks.common.sweep_scene``:
 midpoint, Δ = 2.3, ν = 0, about 1.4 % of the nodes in contact) at 513², normal and corrective solves by the CG.
 
     python -m benchmarks.bench_products [--sizes 256 512 1024 2048] [--scenes scene full]
-        [--precisions double mixed] [--edge-shares 0.8] [--sweep 513] [--ranks 1]
+        [--precisions double mixed] [--edge-shares 0.8] [--defers 1] [--sweep 513] [--ranks 1]
         [--output results/bench_products.json]
 
 Times are medians of ``--repeats`` runs (one at 2048² and above).
@@ -95,28 +96,31 @@ def worker(args) -> None:
             grid = SlabConvolution((n, n), comm)           # the operator's padded lengths and threads
             pair = fft_pair_seconds(grid.lengths, grid.workers)
             for precision in args.precisions:
-                times = {share: [] for share in args.edge_shares}
+                variants = [(share, defer) for share in args.edge_shares for defer in args.defers]
+                times = {variant: [] for variant in variants}
                 results, counts = {}, {}
                 for _ in range(1 if n >= 2048 else args.repeats):
-                    for share in args.edge_shares:             # alternated, so both see the same machine
+                    for variant in variants:                   # alternated, so all see the same machine
+                        share, defer = variant
                         comm.Barrier()
                         t0 = time.perf_counter()
                         problem = scene_problem(topo, comm)
                         counter = Counter(problem.flexibility.convolution)
-                        results[share] = solve_scene(problem, PRESSURES[scene],
-                                                     CGSettings(precision=precision, edge_share=share))
+                        results[variant] = solve_scene(problem, PRESSURES[scene], CGSettings(
+                            precision=precision, edge_share=share, defer=defer))
                         comm.Barrier()
-                        times[share].append(time.perf_counter() - t0)
-                        counts[share] = counter.counts
+                        times[variant].append(time.perf_counter() - t0)
+                        counts[variant] = counter.counts
                         problem.destroy()
-                for share in args.edge_shares:
-                    seconds, result = float(np.median(times[share])), results[share]
+                for variant in variants:
+                    seconds, result = float(np.median(times[variant])), results[variant]
                     emit(comm, rows, {
                         "kind": "normal", "scene": scene, "n": n, "ranks": comm.Get_size(), "precision": precision,
-                        "edge_share": share, "seconds": seconds, "all_seconds": times[share],
+                        "edge_share": variant[0], "defer": variant[1], "seconds": seconds,
+                        "all_seconds": times[variant],
                         "fft_pair_seconds": pair, "fft_pairs": seconds / pair,
                         "fine_iterations": result.linear_iterations, "coarse_iterations": result.coarse_iterations,
-                        "fine_products": counts[share], "contact_fraction": result.contact_fraction,
+                        "fine_products": counts[variant], "contact_fraction": result.contact_fraction,
                         "residual": result.residual})
     if args.sweep:
         rows.extend(sweep_rows(comm, args))
@@ -157,6 +161,7 @@ def sweep_rows(comm, args) -> list[dict]:
 
 
 def main() -> None:
+    from roughcontact.normal.constrained_cg import CGSettings
     from roughcontact.operators.preconditioner import EDGE_SHARE
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -168,12 +173,15 @@ def main() -> None:
     parser.add_argument("--sweep", type=int, default=513, help="grid of the sweep row (0: none)")
     parser.add_argument("--edge-shares", type=float, nargs="+", default=[EDGE_SHARE],
                         help="CGSettings.edge_share of each normal row (0: the plain preconditioner)")
+    parser.add_argument("--defers", type=float, nargs="+", default=[CGSettings().defer],
+                        help="CGSettings.defer of each normal row (0: every cut takes its product)")
     args = parser.parse_args()
     if args.worker:
         return worker(args)
     rows = run_on_ranks(__spec__.name, args.ranks, [
         "--repeats", str(args.repeats), "--sizes", *map(str, args.sizes), "--scenes", *args.scenes,
-        "--precisions", *args.precisions, "--sweep", str(args.sweep), "--edge-shares", *map(str, args.edge_shares)])
+        "--precisions", *args.precisions, "--sweep", str(args.sweep), "--edge-shares", *map(str, args.edge_shares),
+        "--defers", *map(str, args.defers)])
     save_json(rows, args.output)
 
 

@@ -27,8 +27,10 @@ preconditioner:
    preconditioned step as the others (giving each the force that would close
    its own gap alone overloads fronts of entering nodes and makes
    warm-started solves oscillate); H p is updated as H p − α H d + H c,
-   with c the forces the cut at zero restored (a second product, on the
-   iterations that cut);
+   with c the forces the cut at zero restored: a second product, on the
+   iterations that cut, or only c's near field summed directly while the
+   far fields left out stay below a share of the gap's size
+   (:mod:`~roughcontact.operators.near_field`, ``CGSettings.defer``);
 4. the load is restored exactly, p ← p · P/Σp.
 
 Load control with free rotation (imposed moments) is a Newton iteration on
@@ -67,6 +69,10 @@ PRECISIONS = ("mixed", "double")
 #: the residual (relative to the scale of w) below which single-precision products can stop it
 #: falling: they stalled it at 1e-7 to 8e-7 near full contact (512²), so 1e-5 leaves a factor 10
 SINGLE_FLOOR = 1e-5
+#: the cut nodes whose far field may wait at once: one in this many nodes of the grid. Each costs
+#: two window sums of about 10 µs (9.5-9.9 µs per node in 1024² and 2048² solves), and a 2048²
+#: single-precision product about 100 ms: N / 1024 nodes keep the sums below a product's time
+DEFER_NODES = 1024
 
 
 @dataclass(frozen=True)
@@ -122,6 +128,24 @@ class CGSettings:
         iterations above SINGLE_FLOOR (the free set cycling: near full contact
         at 1024², Δ = 2.8) the rest of the solve takes the plain one.
         docs/solvers.md, "The edge correction".
+    defer
+        The far fields of the forces a cut restores wait (only their near
+        field, 32 nodes around each, is added to H p at once) while
+        ``far_bound`` × their sum, the most they can add to the gap of any
+        node, stays at most ``defer`` × the root mean square of the gap on the
+        free set; then one product settles them all with the cut that passed
+        the bound (:mod:`~roughcontact.operators.near_field`). An exact H p
+        (a refresh) forgets them. At most one node in DEFER_NODES waits. 0:
+        every cut takes its product at once. Padded products of whole solves
+        (fine iterations), 0 → 1: the large-grid scene at 512² 21 → 18 (15 →
+        15), 1024² 26 → 22 (17 → 17), 2048² 46 → 34 (27 → 26), 4096² 75 → 63
+        (42 → 41); near full contact (Δ = 2.5, 1 E*) 512² 60 → 52 (44 →
+        44), 1024² 118 → 101 (69 → 68). A bound of 0.25 × the largest gap
+        error instead (the residual) let 4096² wander for 35 iterations (80
+        against 42): the far fields reach every node, the residual only a few.
+        Where a confirmation of convergence fails with far fields deferred,
+        the rest of the solve settles every cut at once (still in single
+        precision: the deferred fields, not the precision, may have failed it).
     precision
         ``"mixed"`` (default): the product H d of each search direction, the
         product H c of the forces a cut restores, and the preconditioner in
@@ -152,6 +176,7 @@ class CGSettings:
     max_newton: int = 50
     precision: str = "mixed"
     edge_share: float = EDGE_SHARE
+    defer: float = 1.0
 
     def __post_init__(self):
         if self.preconditioner not in PRECONDITIONERS:
@@ -159,6 +184,9 @@ class CGSettings:
                                                f"got {self.preconditioner!r}")
         if self.precision not in PRECISIONS:
             raise InputError("precision", f"must be one of {', '.join(PRECISIONS)}, got {self.precision!r}")
+        if not 0.0 <= self.defer < np.inf:
+            raise InputError("defer", f"must be a finite share >= 0 of the gap's root mean square (0: "
+                                      f"every cut takes its product at once), got {self.defer!r}")
         if not 0.0 <= self.edge_share < 1.0:
             raise InputError("edge_share", f"must be in [0, 1) (1 removes the whole edge term and leaves "
                                            f"isolated nodes without a scaling), got {self.edge_share!r}")
@@ -283,13 +311,16 @@ class ConstrainedCGSolver(NormalSolver):
         displacement = pb.displacement(forces)
         direction = np.zeros_like(forces)              # zero outside the free set
         clipped = np.zeros_like(forces)                # c of the last cut at its nodes, zero elsewhere
+        pending = self._pending()                      # cut forces whose far field waits (None: never)
         previous = None                                # gᵀz of the last iteration, None: restart
         working = np.zeros(0, dtype=np.intp)           # the free set of the last iteration
         free_mask = np.zeros(forces.size, dtype=bool)  # the same set as a mask (set changes by XOR)
         # the node vectors of every iteration, made once: fresh temporaries of N values (and index
         # arrays of changing sizes between them) fragmented the heap of each rank
         last_mask, changed, in_contact = (np.zeros(forces.size, dtype=bool) for _ in range(3))
-        gap = np.empty_like(forces)
+        # H p − w, the deformed gap before the approach is subtracted: the gap is this less the
+        # approach, taken on the nodes that need it (a pass over N less per iteration)
+        lifted = np.empty_like(forces)
         edge, stale = None, True                       # the edge weights on the free set (None: none)
         correcting = self._corrected                   # the edge correction in use (dropped where it stalls)
         history: list[float] = []
@@ -299,12 +330,13 @@ class ConstrainedCGSolver(NormalSolver):
         for iteration in range(1, settings.max_iterations + 1):
             np.greater(forces, 0.0, out=in_contact)
             contact = np.flatnonzero(in_contact)
-            np.subtract(displacement, w, out=gap)
-            approach = _mean(pb, gap[contact]) if load is not None else 0.0
-            gap -= approach                            # the deformed gap, zero on S at the solution
+            np.subtract(displacement, w, out=lifted)
+            on_contact = lifted[contact]
+            approach = _mean(pb, on_contact) if load is not None else 0.0
+            on_contact -= approach                     # the deformed gap on S, zero at the solution
             # max(|g| on S, max(−g) off S): −g ≤ |g| on S, so the minimum may run over all nodes
-            residual = float(pb.allmax(max(np.abs(gap[contact]).max(initial=0.0),
-                                            -gap.min(initial=0.0)))) / w_scale
+            residual = float(pb.allmax(max(np.abs(on_contact).max(initial=0.0),
+                                            approach - lifted.min(initial=approach)))) / w_scale
             history.append(residual)
             best, since_best = (residual, 0) if residual < best else (best, since_best + 1)
             # single-precision products stalled (no new lowest residual in `renew` iterations: near
@@ -326,18 +358,25 @@ class ConstrainedCGSolver(NormalSolver):
             if residual <= tol or stalled:
                 if since_refresh == 0 and residual <= tol:
                     rigid[free] = approach
-                    return self._state(forces, gap, iteration, residual, history), rigid
+                    lifted -= approach
+                    return self._state(forces, lifted, iteration, residual, history), rigid
                 # confirm on an exact H p (the updated one carries the steps' round-off); if that
                 # gap is not converged, the conjugate directions were built on the updated one:
                 # restart them, and take every product in double from here (the single ones left
                 # 1.2e-10 at 65² and tol 1e-11, and 1084 iterations against 310 when they went on)
                 if since_refresh:
                     displacement = pb.displacement(forces)
-                since_refresh, previous, single, since_best = 0, None, False, 0
+                if pending is not None and pending.count:
+                    # the deferred far fields may have made the difference: no more deferring, but
+                    # the products stay in single precision until a confirmation fails without them
+                    pending = None
+                else:
+                    single = False
+                since_refresh, previous, since_best = 0, None, 0
                 continue
             # masks, not sorted-set operations: union1d's sort cost more than the FFT products at 512²
             last, last_mask, free_mask = working, free_mask, last_mask
-            np.logical_or(in_contact, np.less(gap, 0.0, out=free_mask), out=free_mask)
+            np.logical_or(in_contact, np.less(lifted, approach, out=free_mask), out=free_mask)
             working = np.flatnonzero(free_mask)
             counts = pb.allsum(np.array([np.count_nonzero(np.not_equal(free_mask, last_mask, out=changed)),
                                          working.size]))
@@ -352,7 +391,11 @@ class ConstrainedCGSolver(NormalSolver):
                 # moved, they let the residual wander between 1e-4 and 7e-4 for 30 iterations at
                 # 4096² (61 fine iterations against 42)
                 edge, stale = self._edge_weights(working, single, correcting), False
-            g = gap[working]
+            g = lifted[working]
+            g -= approach
+            if pending is not None:                    # what the deferred far fields may reach
+                square, size = pb.allsum(np.array([g @ g, g.size]))
+                allowed = settings.defer * float(np.sqrt(square / size)) if size else 0.0
             z, gz = self._direction(g, working, single, edge, load is not None)
             if not gz > 0.0 and correcting:
                 # the corrected preconditioner is positive definite only as far as C⁻¹'s positive
@@ -390,15 +433,27 @@ class ConstrainedCGSolver(NormalSolver):
             if since_refresh >= settings.refresh:
                 displacement = pb.displacement(forces)
                 since_refresh = 0
+                if pending is not None:
+                    pending.clear()
             else:
                 # H (p − α d + c) = H p − α H d + H c: after a cut, one more product, of the small
-                # correction c, whose single-precision error shrinks with it like the step's (the
-                # sum of c's kernel columns, when c had at most 4 nodes, saved nothing measurable)
+                # correction c, whose single-precision error shrinks with it like the step's, or
+                # only c's near field while the far fields deferred stay below `allowed` (settled
+                # also on an iteration without a cut once the gap has shrunk below them)
                 product *= step                        # a fresh array: scaled in place, not copied
                 displacement -= product
-                if cut:
+                if cut and pending is None:
                     displacement += pb.displacement(clipped, single)
+                elif pending is not None:
+                    mass, count = pb.allsum(np.array([clipped[cut_nodes].sum(), cut_nodes.size])) if cut \
+                        else (0.0, 0)
+                    if cut and pending.count + count <= self._deferred_nodes and pending.bound(mass) <= allowed:
+                        pending.defer(displacement, cut_nodes, clipped[cut_nodes], float(mass), int(count))
+                    elif cut or pending.bound() > allowed:
+                        displacement += pending.settle(clipped, lambda c: pb.displacement(c, single))
                 displacement *= scale                  # H is linear: a uniform rescaling is exact
+                if pending is not None:
+                    pending.rescale(scale)
             if cut:
                 clipped[cut_nodes] = 0.0
         raise ConvergenceError(
@@ -454,6 +509,23 @@ class ConstrainedCGSolver(NormalSolver):
             rigid[free] = 0.0
             rigid[0] = self.winkler_approach(rigid, loads[0])
         return np.maximum(pb.interpenetration(rigid), 0.0) / pb.flexibility.diagonal, rigid
+
+    def _pending(self):
+        """A ledger of cut forces whose far field waits (:class:`~roughcontact.operators.near_field.PendingFarField`),
+        or None where the operator has no near field or ``defer`` is 0."""
+        if self.settings.defer <= 0.0:
+            return None
+        near = self.problem.flexibility.near_field
+        if near is None:
+            return None
+        from ..operators.near_field import PendingFarField
+
+        return PendingFarField(near)
+
+    @property
+    def _deferred_nodes(self) -> int:
+        """The most cut nodes whose far field may wait at once (all ranks): one in DEFER_NODES."""
+        return max(1, self.problem.size // DEFER_NODES)
 
     @property
     def _corrected(self) -> bool:

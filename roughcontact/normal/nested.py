@@ -119,11 +119,11 @@ def prolong(coarse_result: NormalResult, coarse: NormalProblem, fine: NormalProb
     """
     layout = fine.flexibility.layout
     (r0, r1), mask = layout.rows, layout.local_mask
-    cx, cy = coarse.topography.shape
-    # the coarse rows and columns each fine row and column lies between (the same twice on a coarse one)
-    rows, columns = np.arange(r0, r1), np.arange(fine.topography.shape[1])
-    i0, j0 = np.minimum(rows // 2, cx - 1), np.minimum(columns // 2, cy - 1)
-    i1, j1 = np.minimum(i0 + rows % 2, cx - 1), np.minimum(j0 + columns % 2, cy - 1)
+    cx = coarse.topography.shape[0]
+    # the coarse rows each fine row lies between (the same twice on a coarse one)
+    rows = np.arange(r0, r1)
+    i0 = np.minimum(rows // 2, cx - 1)
+    i1 = np.minimum(i0 + rows % 2, cx - 1)
     needed = (int(i0[0]), int(i1[-1]) + 1) if rows.size else (0, 0)
     mine = np.where(coarse_result.contact, coarse_result.pressure, 0.0)
     if coarse_result.distributed:
@@ -132,5 +132,23 @@ def prolong(coarse_result: NormalResult, coarse: NormalProblem, fine: NormalProb
         pressure = mine[needed[0]:needed[1]]
     # bilinear, one direction at a time: whole rows of the grid, not one gather per node and corner
     along_x = pressure[i0 - needed[0]] + pressure[i1 - needed[0]]
-    value = 0.25 * (along_x[:, j0] + along_x[:, j1])[mask]
+    both = _neighbour_sums(along_x, fine.topography.shape[1])
+    both *= 0.25
+    value = both.reshape(-1) if layout.whole_rows else both[mask]
     return value * fine.topography.spacing**2
+
+
+def _neighbour_sums(values: np.ndarray, count: int) -> np.ndarray:
+    """values[:, j0] + values[:, j1] for the ``count`` fine columns j, j0 = min(j // 2, c − 1) and
+    j1 = min(j0 + j % 2, c − 1) (c coarse columns), by strided slices: the gathers by index arrays
+    took 0.3 s of a 2048² solve"""
+    coarse = values.shape[1]
+    out = np.empty((values.shape[0], count))
+    even, odd = out[:, 0::2], out[:, 1::2]
+    inner = min(even.shape[1], coarse)                 # fine 2k on coarse k
+    np.multiply(values[:, :inner], 2.0, out=even[:, :inner])
+    even[:, inner:] = 2.0 * values[:, coarse - 1:coarse]
+    inner = min(odd.shape[1], coarse - 1)              # fine 2k + 1 between coarse k and k + 1
+    np.add(values[:, :inner], values[:, 1:inner + 1], out=odd[:, :inner])
+    odd[:, inner:] = 2.0 * values[:, coarse - 1:coarse]
+    return out

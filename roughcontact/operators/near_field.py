@@ -1,0 +1,131 @@
+"""The near field of a few nodal forces, summed directly: H c within R nodes of each force.
+
+The constrained CG (:mod:`roughcontact.normal.constrained_cg`) cuts the
+forces that a step would make negative and must add H c, the displacement
+of the forces c the cut restores, to its updated H p. Late in a solve c
+sits on a handful of nodes and is small, yet each cut cost a whole padded
+FFT product. Here H c is split at a radius of R nodes:
+
+- the near part, every node (i, j) with |Δi| ≤ R and |Δj| ≤ R of a force,
+  is summed directly from the (2R + 1)² window of the Eq. 10 table, a few
+  microseconds per force;
+- the far part of each force is at most ``far_bound`` × force at every node
+  (the kernel decreases with the distance, and every node outside the window
+  is at least R + 1 spacings away: K(R + 1, 0) = A/(2πa) arcsin(a / ((R + 1) s)),
+  about 1/(π (R + 1)) of the diagonal A/(4a)).
+
+The far parts of the forces can therefore wait and be added later by one
+FFT product of all of them together, less their near parts
+(:meth:`NearField.add` with ``sign = -1``), once their bound matters for the
+residual. It applies to the half-space FFT operator on a footprint that is
+the whole grid (vectors are the slab itself, no window wraps round).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .kernel import mirrored_kernel, punch_kernel
+
+#: nodes of the window's half-width: K(R + 1, 0) is 0.0096 of the diagonal at 32, and a window
+#: of 65 × 65 values costs about 10 µs per force
+NEAR_RADIUS = 32
+
+
+class NearField:
+    """Direct sums of the Eq. 10 kernel within ``radius`` nodes of given forces, on the slab
+    layout of a :class:`~.flexibility.Flexibility` (whole-grid footprint, half-space operator)."""
+
+    def __init__(self, flexibility, radius: int = NEAR_RADIUS):
+        self.radius = int(radius)
+        self.comm = flexibility.comm
+        self.shape = flexibility.shape
+        self.rows = flexibility.layout.rows
+        self.positions = flexibility.layout.positions
+        reach = self.radius + 1
+        table = punch_kernel((reach + 1, 1), flexibility.spacing, flexibility.compliance)
+        self.window = mirrored_kernel(punch_kernel((reach, reach), flexibility.spacing,
+                                                   flexibility.compliance))      # (2R + 1)²
+        #: the largest kernel value outside the window: K(R + 1, 0)
+        self.far_bound = float(table[reach, 0])
+
+    @staticmethod
+    def applies(flexibility) -> bool:
+        """Whether a near field can stand in for part of the operator's products (the same on
+        every rank): the half-space FFT operator on a whole-grid footprint."""
+        return (flexibility.convolution is not None and not flexibility.periodic
+                and flexibility.layout.whole_grid)
+
+    def add(self, out: np.ndarray, nodes: np.ndarray, forces: np.ndarray, sign: float = 1.0) -> None:
+        """out += sign · (near part of H c), c the ``forces`` on this rank's ``nodes`` (local
+        indices), ``out`` this rank's nodal vector; collective: every rank adds the windows of
+        every rank's forces that reach its rows."""
+        ny = self.shape[1]
+        positions = self.positions[nodes]
+        mine = np.column_stack([positions // ny + self.rows[0], positions % ny, forces])
+        gathered = self.comm.allgather(mine) if self.comm.Get_size() > 1 else [mine]
+        field = out.reshape(self.rows[1] - self.rows[0], ny)
+        r0, r1 = self.rows
+        reach, window = self.radius, self.window
+        for block in gathered:
+            for row, column, force in block:
+                row, column = int(row), int(column)
+                top, bottom = max(row - reach, r0), min(row + reach + 1, r1)
+                if top >= bottom:
+                    continue
+                left, right = max(column - reach, 0), min(column + reach + 1, ny)
+                part = window[top - row + reach:bottom - row + reach, left - column + reach:right - column + reach]
+                field[top - r0:bottom - r0, left:right] += (sign * force) * part
+
+
+class PendingFarField:
+    """Forces whose near field is in a displacement vector and whose far field is not yet.
+
+    The constrained CG defers the far field of the forces its cuts restore while
+    ``far_bound`` × their sum, the most their far fields can add to any node, stays
+    below a share of its residual, and settles them all with one product when a cut
+    would pass that bound (:meth:`settle`). ``mass`` and ``count`` are over all ranks.
+    """
+
+    def __init__(self, near: NearField):
+        self.near = near
+        self.entries: list[tuple[np.ndarray, np.ndarray]] = []
+        self.mass = 0.0
+        self.count = 0
+
+    def bound(self, mass: float = 0.0) -> float:
+        """The most the deferred far fields, and those of ``mass`` more, add to any node."""
+        return self.near.far_bound * (self.mass + mass)
+
+    def defer(self, displacement: np.ndarray, nodes: np.ndarray, forces: np.ndarray,
+              mass: float, count: int) -> None:
+        """Add the near field of ``forces`` on this rank's ``nodes`` to ``displacement`` and keep
+        them (their sum ``mass`` and number ``count`` over all ranks); collective."""
+        self.near.add(displacement, nodes, forces)
+        self.entries.append((nodes.copy(), forces.copy()))
+        self.mass += mass
+        self.count += count
+
+    def rescale(self, factor: float) -> None:
+        """The forces were scaled by ``factor`` (the CG restoring the load), their fields with them."""
+        for _, forces in self.entries:
+            forces *= factor
+        self.mass *= factor
+
+    def settle(self, clipped: np.ndarray, product) -> np.ndarray:
+        """H (clipped + deferred) less the deferred forces' near field, which the displacement
+        already holds: what completes it; ``clipped`` (zero but at the nodes of the last cut)
+        gets the deferred forces for the ``product`` and loses them after. Collective."""
+        for nodes, forces in self.entries:
+            clipped[nodes] += forces
+        field = product(clipped)
+        for nodes, forces in self.entries:
+            clipped[nodes] = 0.0           # a node of the last cut is zeroed by the caller after anyway
+            self.near.add(field, nodes, forces, -1.0)
+        self.clear()
+        return field
+
+    def clear(self) -> None:
+        """Forget the deferred forces: the displacement was computed again from the forces."""
+        self.entries.clear()
+        self.mass = 0.0
+        self.count = 0

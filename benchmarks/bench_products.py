@@ -52,17 +52,22 @@ PRESSURES = {"scene": SCENE_PRESSURE, "full": 1.0}            # mean pressure / 
 
 
 class Counter:
-    """Counts the FFT products of a convolution by precision (wraps its ``apply``)."""
+    """Counts the FFT products of a convolution by precision (wraps its ``apply`` and
+    ``apply_at``)."""
 
     def __init__(self, convolution):
         self.counts = {"double": 0, "single": 0}
-        apply = convolution.apply
+        apply, apply_at = convolution.apply, convolution.apply_at
 
         def counted(field, single=False):
             self.counts["single" if single else "double"] += 1
             return apply(field, single)
 
-        convolution.apply = counted
+        def counted_at(values, positions, single=False):
+            self.counts["single" if single else "double"] += 1
+            return apply_at(values, positions, single)
+
+        convolution.apply, convolution.apply_at = counted, counted_at
 
 
 def fft_pair_seconds(lengths: tuple[int, int], workers: int, repeats: int = 15) -> float:

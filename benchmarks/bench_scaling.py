@@ -69,12 +69,12 @@ INVARIANT_RTOL = 1e-8
 
 
 @contextmanager
-def clocked(methods: dict[str, tuple[type, str]]):
-    """Wall seconds spent in each (class, method) while the block runs, by name (a call inside
+def clocked(methods: dict[str, tuple[type, tuple[str, ...]]]):
+    """Wall seconds spent in each (class, methods) while the block runs, by name (a call inside
     another clocked call of the same name counts once)."""
     spent = {name: 0.0 for name in methods}
     depth = {name: 0 for name in methods}
-    originals = {name: getattr(cls, attr) for name, (cls, attr) in methods.items()}
+    originals = {(name, attr): getattr(cls, attr) for name, (cls, attrs) in methods.items() for attr in attrs}
 
     def wrap(name, function):
         def timed(*args, **kwargs):
@@ -88,13 +88,13 @@ def clocked(methods: dict[str, tuple[type, str]]):
                     spent[name] += time.perf_counter() - t0
         return timed
 
-    for name, (cls, attr) in methods.items():
-        setattr(cls, attr, wrap(name, originals[name]))
+    for (name, attr), function in originals.items():
+        setattr(methods[name][0], attr, wrap(name, function))
     try:
         yield spent
     finally:
-        for name, (cls, attr) in methods.items():
-            setattr(cls, attr, originals[name])
+        for (name, attr), function in originals.items():
+            setattr(methods[name][0], attr, function)
 
 
 def worker(args) -> None:
@@ -112,8 +112,8 @@ def worker(args) -> None:
     topography = TopographyRows.read(args.surface, comm)
     n = topography.shape[0]
     times, result, threads = [], None, None
-    phases = {"nested": (NestedStart, "start"), "products": (SlabConvolution, "apply"),
-              "transposes": (SlabConvolution, "_exchange")}
+    phases = {"nested": (NestedStart, ("start",)), "products": (SlabConvolution, ("apply", "apply_at")),
+              "transposes": (SlabConvolution, ("_exchange",))}
     with clocked(phases) as spent:
         for _ in range(args.repeats):
             comm.Barrier()

@@ -508,13 +508,17 @@ def test_deferred_far_fields_save_products(comm):
     reaches the same state."""
     problem = NormalProblem(rough(512, seed=1), FLAT, comm, operator="fft")
     products = []
-    displacement = problem.displacement
+    displacement, displacement_at = problem.displacement, problem.displacement_at
 
     def counted(forces, single=False):
         products[-1] += 1
         return displacement(forces, single)
 
-    problem.displacement = counted
+    def counted_at(forces, nodes, single=False):
+        products[-1] += 1
+        return displacement_at(forces, nodes, single)
+
+    problem.displacement, problem.displacement_at = counted, counted_at
     states = []
     for defer in (0.0, CGSettings().defer):
         products.append(0)

@@ -152,10 +152,13 @@ class CGSettings:
         single precision (0.5–0.7 of the time of a double FFT product,
         :mod:`~roughcontact.operators.convolution`); the products H p of the
         forces themselves — the first, every ``refresh`` and the confirmation
-        of convergence — in double. The error of a single product, ~1e-7 of
-        its scale, enters the gap only through the increments α H d and H c,
-        which shrink with the residual; the residual a solve reports is
-        always measured on a double H p, so the precision cannot loosen it.
+        of convergence — in double, except on the coarse levels of a nested
+        start with the rotation fixed (tolerance COARSE_TOL): there a single
+        product's error is 1000 times below the tolerance. The error of a
+        single product, ~1e-7 of its scale, enters the gap only through the
+        increments α H d and H c, which shrink with the residual; the
+        residual a solve reports is measured on a double H p, so the
+        precision cannot loosen it.
         Where that fails the rest of the solve is taken in double: when the
         residual has not reached a new lowest value for ``renew``
         iterations once it is below SINGLE_FLOOR (1e-5; near full contact the
@@ -205,17 +208,24 @@ class ConstrainedCGSolver(NormalSolver):
     nested
         Start cold solves from the solution on the grid of spacing 2s
         (:mod:`.nested`), when the grid is fine enough for it to pay off.
+    coarse
+        This solver is a coarse level of a nested start (set by
+        :mod:`.nested`): with the rotation fixed, the products of its forces
+        are taken in the working precision (``CGSettings.precision``).
     """
 
     #: the keyword options :func:`~.factory.make_solver` passes on
     OPTIONS = ("settings", "nested")
 
-    def __init__(self, problem: NormalProblem, settings: CGSettings = CGSettings(), nested: bool = True):
+    def __init__(self, problem: NormalProblem, settings: CGSettings = CGSettings(), nested: bool = True,
+                 coarse: bool = False):
         super().__init__(problem)
         self.method = "cg"
         if not isinstance(settings, CGSettings):
             raise InputError("settings", f"must be a CGSettings, got {type(settings).__name__}")
         self.settings = settings
+        # a coarse level of a nested start: its state only starts the next level
+        self.coarse = bool(coarse)
         if settings.preconditioner == "fourier":
             problem.flexibility.preconditioner   # built now, collectively, not inside a solve
         # a coarse level only starts the next one, whose discretisation moves the loads of its
@@ -223,7 +233,7 @@ class ConstrainedCGSolver(NormalSolver):
         # and its loads (free rotation) are resolved to COARSE_TOL, not to the fine solve's tolerances
         coarse_settings = replace(settings, tol=max(settings.tol, COARSE_TOL),
                                   load_tol=max(settings.load_tol, COARSE_TOL))
-        self.nested = NestedStart(problem, lambda coarse: ConstrainedCGSolver(coarse, coarse_settings)) \
+        self.nested = NestedStart(problem, lambda level: ConstrainedCGSolver(level, coarse_settings, coarse=True)) \
             if nested and NestedStart.applies(problem) else None
         self._krylov = None                            # Krylov solves of the Hessian, free rotation
         # their last solutions (nodes of S, H_SS⁻¹ C_S), the next step's and the next load's start:
@@ -246,7 +256,7 @@ class ConstrainedCGSolver(NormalSolver):
     def _solve(self, rigid, free, loads):
         forces, motion = self._start(rigid, free, loads)
         if len(free) <= 1:
-            return self._constrained_cg(rigid, free, loads, forces)
+            return self._constrained_cg(rigid, free, loads, forces, forces_in_double=not self.coarse)
         # free rotation: Newton on (θx, θy), each evaluation a load-controlled solve at fixed θ
         rigid[free] = motion[free]
         state = {"forces": forces}
@@ -295,8 +305,12 @@ class ConstrainedCGSolver(NormalSolver):
         forces[nodes] += tilt - (sums[0] / sums[1]) * basis[:, 0]
         return np.maximum(forces, 0.0, out=forces)
 
-    def _constrained_cg(self, rigid, free, loads, forces, tol: float | None = None):
-        """The bound-constrained CG with δz imposed (``free`` = []) or found from P (``free`` = [0])."""
+    def _constrained_cg(self, rigid, free, loads, forces, tol: float | None = None,
+                        forces_in_double: bool = True):
+        """The bound-constrained CG with δz imposed (``free`` = []) or found from P (``free`` = [0]);
+        ``forces_in_double`` False: the products H p of the forces themselves in the working
+        precision too where ``tol`` is at least SINGLE_FLOOR (a coarse level's state, which only
+        starts the next level)."""
         pb, settings = self.problem, self.settings
         tol = settings.tol if tol is None else tol
         rigid = rigid.copy()
@@ -308,7 +322,13 @@ class ConstrainedCGSolver(NormalSolver):
         forces = forces.copy()
         if load is not None:
             forces *= _load_scale(pb, forces, load)
-        displacement = pb.displacement(forces)
+        # H p of the forces themselves in double, but on a coarse level at a loose tolerance
+        # (COARSE_TOL) with the rotation fixed: a single product's ~1e-7 is far below it, and a
+        # 2048² coarse level's two double products took 0.8 s. Not in a Newton's evaluations,
+        # whose Φ compares states through pᵀg (a 64² state at tol 1e-3 was off by 5e-8 of Φ)
+        loose = single and tol >= SINGLE_FLOOR and not forces_in_double
+        exact = lambda: pb.displacement(forces, loose and single)    # noqa: E731
+        displacement = exact()
         direction = np.zeros_like(forces)              # zero outside the free set
         clipped = np.zeros_like(forces)                # c of the last cut at its nodes, zero elsewhere
         pending = self._pending()                      # cut forces whose far field waits (None: never)
@@ -365,7 +385,7 @@ class ConstrainedCGSolver(NormalSolver):
                 # restart them, and take every product in double from here (the single ones left
                 # 1.2e-10 at 65² and tol 1e-11, and 1084 iterations against 310 when they went on)
                 if since_refresh:
-                    displacement = pb.displacement(forces)
+                    displacement = exact()
                 if pending is not None and pending.count:
                     # the deferred far fields may have made the difference: no more deferring, but
                     # the products stay in single precision until a confirmation fails without them
@@ -412,7 +432,7 @@ class ConstrainedCGSolver(NormalSolver):
             previous = gz
             direction[last] = 0.0
             direction[working] = step_direction
-            product = pb.displacement(direction, single)
+            product = pb.displacement_at(step_direction, working, single)
             curvature = float(pb.allsum(step_direction @ product[working]))
             if not curvature > 0.0:
                 raise ConvergenceError(
@@ -431,7 +451,7 @@ class ConstrainedCGSolver(NormalSolver):
             forces[working] *= scale
             since_refresh += 1
             if since_refresh >= settings.refresh:
-                displacement = pb.displacement(forces)
+                displacement = exact()
                 since_refresh = 0
                 if pending is not None:
                     pending.clear()
@@ -440,10 +460,9 @@ class ConstrainedCGSolver(NormalSolver):
                 # correction c, whose single-precision error shrinks with it like the step's, or
                 # only c's near field while the far fields deferred stay below `allowed` (settled
                 # also on an iteration without a cut once the gap has shrunk below them)
-                product *= step                        # a fresh array: scaled in place, not copied
-                displacement -= product
+                displacement = _add_scaled(displacement, -step, product)
                 if cut and pending is None:
-                    displacement += pb.displacement(clipped, single)
+                    displacement += pb.displacement_at(clipped[cut_nodes], cut_nodes, single)
                 elif pending is not None:
                     mass, count = pb.allsum(np.array([clipped[cut_nodes].sum(), cut_nodes.size])) if cut \
                         else (0.0, 0)
@@ -561,6 +580,16 @@ class ConstrainedCGSolver(NormalSolver):
         slack = float(self.problem.allsum(forces[contact] @ gap[contact]))
         gap[contact] = 0.0
         return ContactState(forces, contact, gap, 1, iterations, residual, tuple(history), slack)
+
+
+def _add_scaled(target: np.ndarray, factor: float, values: np.ndarray) -> np.ndarray:
+    """target + factor · values, in place, in one pass (BLAS daxpy; numpy's scaling and then
+    subtracting took two passes over N more, 20-25 ms of a 4096² iteration)."""
+    if target.size:
+        from scipy.linalg.blas import daxpy
+
+        target = daxpy(values, target, a=factor)
+    return target
 
 
 def _mean(problem: NormalProblem, values: np.ndarray) -> float:

@@ -104,6 +104,12 @@ class NormalProblem(Collective):
         self._check_alive()
         return self.flexibility.product(forces, single)
 
+    def displacement_at(self, forces: np.ndarray, nodes: np.ndarray, single: bool = False) -> np.ndarray:
+        """u = H p on this rank's nodes for forces ``forces`` on this rank's ``nodes`` (local
+        indices) and none elsewhere (:meth:`.Flexibility.product_at`)."""
+        self._check_alive()
+        return self.flexibility.product_at(forces, nodes, single)
+
     @property
     def extent(self) -> float:
         """Largest |x| or |y| of a footprint node from the centroid (m); s for a single node."""

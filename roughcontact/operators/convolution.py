@@ -128,6 +128,9 @@ class SlabConvolution:
         self.symbol: np.ndarray | None = None                      # (Lx, my columns), real
         self._single_symbol: np.ndarray | None = None              # the symbol as float32, on first use
         self._buffers: dict[bool, tuple] = {}                      # padded buffers of forward(), by precision
+        # where apply_at() last wrote into the rows buffer of each precision (None: anywhere, after
+        # a whole field)
+        self._written: dict[bool, np.ndarray | None] = {}
 
     # ---------------------------------------------------------------- symbol
     def set_kernel(self, kernel: np.ndarray) -> None:
@@ -187,6 +190,25 @@ class SlabConvolution:
             self._single_symbol = self.symbol.astype(np.float32)
         return self._single_symbol
 
+    def apply_at(self, values, positions: np.ndarray, single: bool = False) -> np.ndarray:
+        """k ⊛ x for x equal to ``values`` at the flat ``positions`` of this rank's (rows, ny) slab
+        and zero elsewhere; the result as from :meth:`apply`. The values go straight into the
+        padded rows buffer, where only the positions of the last such call are cleared: for a
+        sparse x (a contact set) that saves zeroing a slab of N values and copying it in."""
+        rows = self._padded(single)[0]
+        ny, ly = self.shape[1], self.lengths[1]
+        index = positions if ly == ny else (positions // ny) * ly + positions % ny
+        last = self._written.get(single)
+        if last is None:
+            rows[:, :ny] = 0.0
+        else:
+            rows.reshape(-1)[last] = 0.0
+        rows.reshape(-1)[index] = values
+        self._written[single] = index
+        spectrum = self._transform(single)
+        spectrum *= self._symbol(single)
+        return self.backward(spectrum)
+
     def forward(self, field: np.ndarray, single: bool = False) -> np.ndarray:
         """2-D transform of the (padded) field: this rank's frequency columns, (Lx, my columns).
 
@@ -194,24 +216,35 @@ class SlabConvolution:
         the padded columns), transformed in place: scipy would otherwise allocate
         and zero a padded copy at every call (8 % of a 2048² product).
         """
-        nx, ny = self.shape
+        rows = self._padded(single)[0]
+        rows[:, :self.shape[1]] = field
+        self._written[single] = None
+        return self._transform(single)
+
+    def _padded(self, single: bool) -> tuple[np.ndarray, np.ndarray]:
+        """The padded rows and columns buffers of one precision, made on first use."""
         if single not in self._buffers:
             real = np.float32 if single else np.float64
             self._buffers[single] = (
                 np.zeros((self.rows[1] - self.rows[0], self.lengths[1]), dtype=real),
                 np.zeros((self.lengths[0], self.my_columns[1] - self.my_columns[0]),
                          dtype=np.complex64 if single else np.complex128))
+            self._written[single] = None
+        return self._buffers[single]
+
+    def _transform(self, single: bool) -> np.ndarray:
+        """The 2-D transform of the rows buffer of one precision as it stands."""
         rows, columns = self._buffers[single]
-        rows[:, :ny] = field
         spectra = sfft.rfft(rows, axis=1, workers=self.workers)
         self._to_columns(spectra, out=columns)
-        columns[nx:] = 0.0
+        columns[self.shape[0]:] = 0.0
         return sfft.fft(columns, axis=0, overwrite_x=True, workers=self.workers)
 
     def release_buffers(self) -> None:
         """Free the padded buffers of :meth:`forward` (made again on the next product): a coarse
         level idle while the fine grid solves need not hold them."""
         self._buffers.clear()
+        self._written.clear()
 
     def backward(self, spectrum: np.ndarray) -> np.ndarray:
         """Inverse of :meth:`forward`, cropped to the grid: this rank's rows, (rows, ny)."""

@@ -151,7 +151,20 @@ class Flexibility:
             y.destroy()
             return out
         slab = self.layout.to_slab(values, out=self._slab)
-        result = self.convolution.apply(slab, single)
+        return self._nodal(self.convolution.apply(slab, single))
+
+    def product_at(self, values: np.ndarray, nodes: np.ndarray, single: bool = False) -> np.ndarray:
+        """H x on this rank's nodes for x equal to ``values`` on this rank's ``nodes`` (local
+        indices) and zero elsewhere, as :meth:`product`: a sparse x (a search direction on the
+        free set, the forces a cut restores) goes into the transform without a vector of N."""
+        if self.convolution is None:
+            full = np.zeros(self.layout.local_size)
+            full[nodes] = values
+            return self.product(full, single)
+        return self._nodal(self.convolution.apply_at(values, self.layout.positions[nodes], single))
+
+    def _nodal(self, result: np.ndarray) -> np.ndarray:
+        """This rank's nodes of a product on its slab rows, float64, a new contiguous array."""
         if self.layout.whole_rows:
             # one copy of the cropped (strided) product, already float64: reshaping it first made
             # a float32 copy and the cast a second one (5 ms of a 100 ms product at 2048²)

@@ -100,16 +100,12 @@ class FourierPreconditioner:
                                    f"the wrapped kernel's symbol reaches {smallest:.3e} <= 0; the Fourier "
                                    "preconditioner is not positive definite on this grid: use -normal_pc_type none")
         self.convolution.set_symbol(1.0 / self.convolution.symbol)     # C⁻¹: a product applies it
-        self._slab = np.zeros((self.layout.rows[1] - self.layout.rows[0], shape[1]))
         # C⁻¹'s diagonal A_ii and row sum a₀, read off its column at node (0, 0), which the first
         # rank's rows hold; the double buffers of this one product are not kept (mixed-precision
         # solves never use them)
         first = self.convolution.rows[0] == 0
-        if first:
-            self._slab[0, 0] = 1.0
-        column = self.convolution.apply(self._slab)
+        column = self.convolution.apply_at(1.0, np.zeros(1 if first else 0, dtype=np.intp))
         self.convolution.release_buffers()
-        self._slab.fill(0.0)
         self.inverse_diagonal, self.inverse_row_sum = (float(v) for v in flexibility.comm.allreduce(
             np.array([column[0, 0] if first else 0.0, column.sum()])))
 
@@ -136,11 +132,10 @@ class FourierPreconditioner:
         return weights
 
     def _restricted(self, values, nodes: np.ndarray, single: bool) -> np.ndarray:
-        """[C⁻¹ (values on S, 0 elsewhere)]_S as float64, a new array (collective)."""
-        self._slab.fill(0.0)
+        """[C⁻¹ (values on S, 0 elsewhere)]_S as float64, a new array (collective); the values are
+        written at S's slab positions only (:meth:`~.convolution.SlabConvolution.apply_at`)."""
         positions = self.layout.positions[nodes]
-        self._slab.reshape(-1)[positions] = values
-        smoothed = self.convolution.apply(self._slab, single).reshape(-1)[positions]    # a copy
+        smoothed = self.convolution.apply_at(values, positions, single).reshape(-1)[positions]  # a copy
         return smoothed.astype(float, copy=False)
 
 

@@ -478,9 +478,10 @@ def test_mixed_precision_falls_back_to_double_where_it_stalls(comm):
 @pytest.mark.parametrize("control", sorted(CONTROLS))
 def test_deferred_far_fields_reach_the_same_state(comm, control, monkeypatch):
     """Cut forces whose far field waits (``defer``, the default) change the path, not the state:
-    the same forces to the force tolerance as settling every cut at once (defer 0). The 64²
-    grid lets 4 cut nodes wait; here any number may (DEFER_NODES 1), so that every control
-    takes the deferring branches, and the test checks that some far field did wait."""
+    the same forces to the force tolerance as settling every cut at once (defer 0). A 64² grid
+    defers nothing (below DEFER_FROM); here any grid and any number of nodes may (DEFER_FROM 1,
+    DEFER_NODES 1), so that every control takes the deferring branches, and the test checks that
+    some far field did wait."""
     import roughcontact.normal.constrained_cg as constrained_cg
     from roughcontact.operators.near_field import PendingFarField
 
@@ -495,6 +496,7 @@ def test_deferred_far_fields_reach_the_same_state(comm, control, monkeypatch):
 
     monkeypatch.setattr(PendingFarField, "defer", recorded)
     monkeypatch.setattr(constrained_cg, "DEFER_NODES", 1)
+    monkeypatch.setattr(constrained_cg, "DEFER_FROM", 1)
     waited = solve(problem, "cg", CONTROLS[control])
     assert deferred
     assert_same_state(at_once, waited)

@@ -536,3 +536,25 @@ def test_deferred_far_fields_save_products(comm):
 def test_bad_defer_is_named(defer):
     with pytest.raises(InputError, match="defer"):
         CGSettings(defer=defer)
+
+
+def test_cg_on_a_users_mat_settles_every_cut(comm, monkeypatch):
+    """A user's Mat has no kernel table, so no near field: the CG (plain preconditioner) takes
+    every cut's product at once even where the grid's size would let far fields wait (DEFER_FROM
+    1), and reaches the built-in operator's state."""
+    import roughcontact.normal.constrained_cg as constrained_cg
+
+    monkeypatch.setattr(constrained_cg, "DEFER_FROM", 1)
+    topo = rough(32, seed=3)
+    reference = NormalProblem(topo, FLAT, comm, operator="dense")
+    settings = CGSettings(preconditioner="none")
+    control = lambda s: s.solve_load(0.01 * topo.nominal_area, rotation=(0.0, 0.0))    # noqa: E731
+    expected = solve(reference, "cg", control, settings=settings)
+    user = reference.operator.convert("aij")
+    problem = NormalProblem(topo, FLAT, comm, operator=user)
+    assert problem.flexibility.near_field is None
+    result = solve(problem, "cg", control, settings=settings, nested=False)
+    assert_same_state(expected, result)
+    problem.destroy()
+    user.destroy()
+    reference.destroy()

@@ -109,7 +109,7 @@ class Flexibility:
         self.shape = self.layout.shape
         self.spacing = topography.spacing
         self.convolution = self._table = self._offsets = self._preconditioner = None
-        self._slab = None
+        self._slab = self._near_field = None
         self.mat = mat
         rows = tuple(mat.getOwnershipRange())
         if mat.getSize()[0] != self.layout.size or rows != (self.layout.start, self.layout.stop):
@@ -200,9 +200,11 @@ class Flexibility:
     @property
     def near_field(self):
         """Direct sums of the kernel near a few forces (:mod:`.near_field`), built on first use;
-        None where they do not apply (a periodic or dense operator, a footprint that is not the
-        whole grid). Collective on first use only through the same decision on every rank."""
-        if self._near_field is None and self.convolution is not None:
+        None where they do not apply (a periodic operator, a user's Mat, a footprint that is not
+        the whole grid). The same decision on every rank."""
+        if self.convolution is None:
+            return None
+        if self._near_field is None:
             from .near_field import NearField
 
             self._near_field = NearField(self) if NearField.applies(self) else False

@@ -57,17 +57,16 @@ class Counter:
 
     def __init__(self, convolution):
         self.counts = {"double": 0, "single": 0}
-        apply, apply_at = convolution.apply, convolution.apply_at
+        convolution.apply = self._counted(convolution.apply, 1)
+        convolution.apply_at = self._counted(convolution.apply_at, 2)
 
-        def counted(field, single=False):
+    def _counted(self, product, fields: int):
+        """``product`` counted; its ``single`` follows ``fields`` positional arguments."""
+        def counted(*args, **kwargs):
+            single = args[fields] if len(args) > fields else kwargs.get("single", False)
             self.counts["single" if single else "double"] += 1
-            return apply(field, single)
-
-        def counted_at(values, positions, single=False):
-            self.counts["single" if single else "double"] += 1
-            return apply_at(values, positions, single)
-
-        convolution.apply, convolution.apply_at = counted, counted_at
+            return product(*args, **kwargs)
+        return counted
 
 
 def fft_pair_seconds(lengths: tuple[int, int], workers: int, repeats: int = 15) -> float:

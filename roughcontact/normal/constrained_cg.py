@@ -55,6 +55,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.linalg.blas import daxpy
 
 from ..errors import ConvergenceError, InputError
 from ..operators.preconditioner import EDGE_SHARE
@@ -314,8 +315,7 @@ class ConstrainedCGSolver(NormalSolver):
                         forces_in_double: bool = True):
         """The bound-constrained CG with δz imposed (``free`` = []) or found from P (``free`` = [0]);
         ``forces_in_double`` False: the products H p of the forces themselves in the working
-        precision too where ``tol`` is at least SINGLE_FLOOR (a coarse level's state, which only
-        starts the next level)."""
+        precision too (a coarse level's state at COARSE_TOL, which only starts the next level)."""
         pb, settings = self.problem, self.settings
         tol = settings.tol if tol is None else tol
         rigid = rigid.copy()
@@ -331,8 +331,7 @@ class ConstrainedCGSolver(NormalSolver):
         # (COARSE_TOL) with the rotation fixed: a single product's ~1e-7 is far below it, and a
         # 2048² coarse level's two double products took 0.8 s. Not in a Newton's evaluations,
         # whose Φ compares states through pᵀg (a 64² state at tol 1e-3 was off by 5e-8 of Φ)
-        loose = single and tol >= SINGLE_FLOOR and not forces_in_double
-        exact = lambda: pb.displacement(forces, loose and single)    # noqa: E731
+        exact = lambda: pb.displacement(forces, single and not forces_in_double)    # noqa: E731
         displacement = exact()
         direction = np.zeros_like(forces)              # zero outside the free set
         clipped = np.zeros_like(forces)                # c of the last cut at its nodes, zero elsewhere
@@ -591,11 +590,7 @@ class ConstrainedCGSolver(NormalSolver):
 def _add_scaled(target: np.ndarray, factor: float, values: np.ndarray) -> np.ndarray:
     """target + factor · values, in place, in one pass (BLAS daxpy; numpy's scaling and then
     subtracting took two passes over N more, 20-25 ms of a 4096² iteration)."""
-    if target.size:
-        from scipy.linalg.blas import daxpy
-
-        target = daxpy(values, target, a=factor)
-    return target
+    return daxpy(values, target, a=factor) if target.size else target
 
 
 def _mean(problem: NormalProblem, values: np.ndarray) -> float:

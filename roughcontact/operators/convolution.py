@@ -179,9 +179,7 @@ class SlabConvolution:
     def apply(self, field: np.ndarray, single: bool = False) -> np.ndarray:
         """k ⊛ field on this rank's rows: ``field`` and the result have shape (rows, ny);
         ``single``: computed in single precision (the result is float32)."""
-        spectrum = self.forward(field, single)
-        spectrum *= self._symbol(single)
-        return self.backward(spectrum)
+        return self._filtered(self.forward(field, single), single)
 
     def _symbol(self, single: bool) -> np.ndarray:
         if not single:
@@ -205,7 +203,10 @@ class SlabConvolution:
             rows.reshape(-1)[last] = 0.0
         rows.reshape(-1)[index] = values
         self._written[single] = index
-        spectrum = self._transform(single)
+        return self._filtered(self._transform(single), single)
+
+    def _filtered(self, spectrum: np.ndarray, single: bool) -> np.ndarray:
+        """The product from the field's transform: times the symbol, transformed back."""
         spectrum *= self._symbol(single)
         return self.backward(spectrum)
 

@@ -42,9 +42,8 @@ class NearField:
         self.rows = flexibility.layout.rows
         self.positions = flexibility.layout.positions
         reach = self.radius + 1
-        table = punch_kernel((reach + 1, 1), flexibility.spacing, flexibility.compliance)
-        self.window = mirrored_kernel(punch_kernel((reach, reach), flexibility.spacing,
-                                                   flexibility.compliance))      # (2R + 1)²
+        table = punch_kernel((reach + 1, reach), flexibility.spacing, flexibility.compliance)
+        self.window = mirrored_kernel(table[:reach])                               # (2R + 1)²
         #: the largest kernel value outside the window: K(R + 1, 0)
         self.far_bound = float(table[reach, 0])
 

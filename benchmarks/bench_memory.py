@@ -62,6 +62,7 @@ def worker(args) -> None:
 
     import roughcontact.normal  # noqa: F401 - its imports belong to the process, not to the solve
     from roughcontact.operators import operator_memory
+    from roughcontact.operators.heap import release_free_blocks
     from roughcontact.surfaces import TopographyRows
 
     comm = MPI.COMM_WORLD
@@ -77,6 +78,9 @@ def worker(args) -> None:
         held = (topography.local_heights, topography.local_footprint) if args.by_rows else \
             (topography.heights, topography.footprint)
         topography_bytes = comm.allreduce(sum(a.nbytes for a in held), op=MPI.MAX)
+        # what a retained heap (roughcontact.operators.heap) still holds of freed blocks is not the
+        # solve's: given back before the resident set is noted
+        release_free_blocks()
         reset = comm.allreduce(reset_peak(), op=MPI.LAND)
         base = proc_status("VmRSS")
         base_max = comm.allreduce(base, op=MPI.MAX)

@@ -42,6 +42,7 @@ import numpy as np
 import scipy.fft as sfft
 
 from ..surfaces.rows import split
+from .heap import MAPPED_FROM, retain_large_blocks
 
 
 def padded_lengths(shape: tuple[int, int], periodic: bool) -> tuple[int, int]:
@@ -131,6 +132,10 @@ class SlabConvolution:
         # where apply_at() last wrote into the rows buffer of each precision (None: anywhere, after
         # a whole field)
         self._written: dict[bool, np.ndarray | None] = {}
+        if (self.rows[1] - self.rows[0]) * self.columns * np.dtype(np.complex128).itemsize > MAPPED_FROM:
+            # this rank's transforms make blocks glibc would map afresh (and the kernel zero) at
+            # every product: reused from the heap instead (:mod:`.heap`)
+            retain_large_blocks()
 
     # ---------------------------------------------------------------- symbol
     def set_kernel(self, kernel: np.ndarray) -> None:

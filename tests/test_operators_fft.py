@@ -113,6 +113,34 @@ def test_product_of_a_sparse_field_equals_the_product_of_the_whole_field(comm, k
     fft.destroy()
 
 
+@pytest.mark.parametrize("kind", ["fft", "fft-periodic"])
+def test_products_of_both_precisions_share_one_buffer(comm, kind):
+    """Single and double products share one padded storage (the single buffers are the first
+    half of the double ones' bytes): in any order of precisions, of whole and of sparse fields,
+    each product equals bit for bit (rtol 0, atol 0) the one of an operator that only ever takes
+    products of that precision, which transforms the same padded field; and the buffers do share
+    their memory."""
+    topo = topography(48, "square")
+    mixed = Flexibility(topo, ROCK, comm, kind=kind)
+    alone = {single: Flexibility(topo, ROCK, comm, kind=kind) for single in (False, True)}
+    rng = np.random.default_rng(5)
+    size = mixed.layout.local_size
+    for single, density in [(True, 0.3), (False, 0.02), (True, 0.05), (True, 1.0), (False, 0.3),
+                            (True, 0.0), (False, 1.0), (True, 0.2), (False, 0.1)]:
+        if density == 1.0:
+            field = rng.standard_normal(size)
+            np.testing.assert_array_equal(mixed.product(field, single), alone[single].product(field, single))
+            continue
+        nodes = np.flatnonzero(rng.random(size) < density)
+        values = rng.standard_normal(nodes.size)
+        np.testing.assert_array_equal(mixed.product_at(values, nodes, single),
+                                      alone[single].product_at(values, nodes, single))
+    buffers = mixed.convolution._buffers
+    assert all(np.shares_memory(buffers[True][k], buffers[False][k]) for k in (0, 1))
+    for operator in (mixed, *alone.values()):
+        operator.destroy()
+
+
 def test_diagonal_is_the_punch_self_term(comm):
     """getDiagonal = A/(4a) = A/(2s) (Eq. 10 at r = 0) on every node."""
     fft = Flexibility(topography(16, "disc"), ROCK, comm, kind="fft")

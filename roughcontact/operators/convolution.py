@@ -128,7 +128,11 @@ class SlabConvolution:
         self.my_columns = self.column_blocks[self.rank]
         self.symbol: np.ndarray | None = None                      # (Lx, my columns), real
         self._single_symbol: np.ndarray | None = None              # the symbol as float32, on first use
-        self._buffers: dict[bool, tuple] = {}                      # padded buffers of forward(), by precision
+        # the padded rows and columns buffers of forward(), by precision: views of one storage of
+        # the widest precision used so far, so that the single ones cost no memory of their own
+        self._storage: tuple[np.ndarray, np.ndarray] | None = None
+        self._buffers: dict[bool, tuple] = {}
+        self._holder: bool | None = None                           # the precision that wrote last
         # where apply_at() last wrote into the rows buffer of each precision (None: anywhere, after
         # a whole field)
         self._written: dict[bool, np.ndarray | None] = {}
@@ -228,15 +232,34 @@ class SlabConvolution:
         return self._transform(single)
 
     def _padded(self, single: bool) -> tuple[np.ndarray, np.ndarray]:
-        """The padded rows and columns buffers of one precision, made on first use."""
+        """The padded rows and columns buffers of one precision, made on first use.
+
+        Both precisions share one storage, made for the widest precision asked for so far (a
+        4096² rank's single buffers are 0.4 GB): the single buffers are the first half of the
+        double ones' bytes. A product of the other precision leaves its values (and, across the
+        single rows' padding, garbage) there, so the first product after a change of precision
+        zeroes its rows buffer whole (about 4 changes per solve; the columns buffer is written
+        whole by every transform).
+        """
         if single not in self._buffers:
-            real = np.float32 if single else np.float64
-            self._buffers[single] = (
-                np.zeros((self.rows[1] - self.rows[0], self.lengths[1]), dtype=real),
-                np.zeros((self.lengths[0], self.my_columns[1] - self.my_columns[0]),
-                         dtype=np.complex64 if single else np.complex128))
+            if self._storage is None or (not single and self._storage[0].dtype != np.float64):
+                real, spectral = (np.float32, np.complex64) if single else (np.float64, np.complex128)
+                self._storage = (np.zeros((self.rows[1] - self.rows[0], self.lengths[1]), dtype=real),
+                                 np.zeros((self.lengths[0], self.my_columns[1] - self.my_columns[0]),
+                                          dtype=spectral))
+                self._buffers.clear()
+                self._written.clear()
+                self._holder = None                                 # zeros: right for either
+            rows, columns = self._storage
+            self._buffers[single] = (_leading(rows, np.float32), _leading(columns, np.complex64)) \
+                if single and rows.dtype == np.float64 else (rows, columns)
             self._written[single] = None
-        return self._buffers[single]
+        buffers = self._buffers[single]
+        if self._holder is not None and self._holder != single:
+            buffers[0].fill(0.0)
+            self._written[single] = np.zeros(0, dtype=np.intp)     # nothing of this precision left
+        self._holder = single
+        return buffers
 
     def _transform(self, single: bool) -> np.ndarray:
         """The 2-D transform of the rows buffer of one precision as it stands."""
@@ -249,8 +272,10 @@ class SlabConvolution:
     def release_buffers(self) -> None:
         """Free the padded buffers of :meth:`forward` (made again on the next product): a coarse
         level idle while the fine grid solves need not hold them."""
+        self._storage = None
         self._buffers.clear()
         self._written.clear()
+        self._holder = None
 
     def backward(self, spectrum: np.ndarray) -> np.ndarray:
         """Inverse of :meth:`forward`, cropped to the grid: this rank's rows, (rows, ny)."""
@@ -320,3 +345,9 @@ class SlabConvolution:
         finally:
             for kind in created:
                 kind.Free()
+
+
+def _leading(block: np.ndarray, dtype) -> np.ndarray:
+    """The first bytes of C-contiguous ``block`` seen as an array of its shape and the narrower
+    ``dtype`` (the single-precision buffer inside the double one's storage)."""
+    return block.reshape(-1).view(dtype)[:block.size].reshape(block.shape)

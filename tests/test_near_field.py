@@ -119,7 +119,7 @@ def test_settling_the_deferred_forces_completes_the_displacement(flexibility):
     last = mine(flexibility, spread_forces(seed=6, count=2))
     nodes = np.flatnonzero(last)
     clipped[nodes] = last[nodes]
-    displacement += pending.settle(clipped, flexibility.product)
+    displacement += pending.settle(clipped, nodes, flexibility.product_at)
     total += last
     expected = flexibility.product(total)
     np.testing.assert_allclose(displacement, expected, rtol=0, atol=1e-10 * expected.max())

@@ -473,7 +473,8 @@ class ConstrainedCGSolver(NormalSolver):
                     if cut and pending.count + count <= self._deferred_nodes and pending.bound(mass) <= allowed:
                         pending.defer(displacement, cut_nodes, clipped[cut_nodes], float(mass), int(count))
                     elif cut or pending.bound() > allowed:
-                        displacement += pending.settle(clipped, lambda c: pb.displacement(c, single))
+                        displacement += pending.settle(clipped, cut_nodes if cut else working[:0],
+                                                       lambda c, nodes: pb.displacement_at(c, nodes, single))
                 displacement *= scale                  # H is linear: a uniform rescaling is exact
                 if pending is not None:
                     pending.rescale(scale)

@@ -110,16 +110,20 @@ class PendingFarField:
             forces *= factor
         self.mass *= factor
 
-    def settle(self, clipped: np.ndarray, product) -> np.ndarray:
+    def settle(self, clipped: np.ndarray, nodes: np.ndarray, product) -> np.ndarray:
         """H (clipped + deferred) less the deferred forces' near field, which the displacement
-        already holds: what completes it; ``clipped`` (zero but at the nodes of the last cut)
-        gets the deferred forces for the ``product`` and loses them after. Collective."""
-        for nodes, forces in self.entries:
-            clipped[nodes] += forces
-        field = product(clipped)
-        for nodes, forces in self.entries:
-            clipped[nodes] = 0.0           # a node of the last cut is zeroed by the caller after anyway
-            self.near.add(field, nodes, forces, -1.0)
+        already holds: what completes it. ``clipped`` is zero but at this rank's ``nodes`` (the
+        last cut's, or none); it gets the deferred forces for the product and loses them after.
+        ``product(values, nodes)`` is H of ``values`` on ``nodes`` and zero elsewhere
+        (:meth:`~.flexibility.Flexibility.product_at`: only those nodes go into the transform).
+        Collective."""
+        for where, forces in self.entries:
+            clipped[where] += forces
+        every = np.unique(np.concatenate([nodes, *(where for where, _ in self.entries)]))
+        field = product(clipped[every], every)
+        for where, forces in self.entries:
+            clipped[where] = 0.0           # a node of the last cut is zeroed by the caller after anyway
+            self.near.add(field, where, forces, -1.0)
         self.clear()
         return field
 

@@ -173,3 +173,52 @@ def test_the_active_sets_krylov_solves_take_the_share_from_the_options_database(
     with pytest.raises(InputError, match="fourier_edge_share"):
         make_solver(problem, "ksp", options={"fourier_edge_share": 1.5})
     problem.destroy()
+
+
+@pytest.mark.parametrize("single", [False, True])
+def test_tracked_edge_weights_follow_small_changes_within_the_windows_tail(comm, flexibility, single, monkeypatch):
+    """EdgeWeights keeps A 1_S and follows each change of S through windows of A (radius 4 here,
+    so that what they leave out is visible), wrapped round the period like C: after every step
+    its weights equal the dense ones to within share × (changed nodes since the last product) ×
+    ``tail``, the largest |A_ij| outside the window (+ 1e-6 A_ii: A 1_S is kept in float32), with
+    changes at the grid's edges and on both sides of the ranks' split; a change larger than one
+    node in EDGE_UPDATES, or EDGE_REFRESH updates, takes the product again."""
+    import roughcontact.operators.preconditioner as preconditioner
+
+    monkeypatch.setattr(preconditioner, "EDGE_RADIUS", 4)
+    monkeypatch.setattr(preconditioner, "EDGE_UPDATES", 20)                 # up to 28 of 576 nodes
+    monkeypatch.setattr(preconditioner, "EDGE_REFRESH", 3)
+    flexibility._preconditioner = None                                      # made with radius 4
+    pc = flexibility.preconditioner
+    inverse = dense_inverse(flexibility)
+    assert pc.window.shape == (9, 9)
+    np.testing.assert_allclose(pc.window, inverse[0].reshape(N, N)[np.ix_(np.arange(-4, 5) % N, np.arange(-4, 5) % N)],
+                               rtol=1e-6)
+    tracker = preconditioner.EdgeWeights(pc)
+    whole, _ = members_of(flexibility, 0.4, seed=8)
+    rng = np.random.default_rng(9)
+    corners = [0, N - 1, N * (N // 2) - 1, N * (N // 2), N * N - 1, N - 1 + N * (N - 1) // 2]
+    since, products = 0, 0
+    for step in range(9):
+        if step == 6:
+            flips = rng.choice(N * N, 60, replace=False)                     # too many: a product
+        else:
+            flips = np.concatenate([rng.choice(N * N, 4, replace=False), corners[step % 3::3]])
+        if step:
+            whole = whole.copy()
+            whole[flips] = ~whole[flips]
+        footprint = np.zeros(N * N, dtype=bool)
+        footprint[np.concatenate(comm.allgather(grid_positions(flexibility)))] = True
+        whole &= footprint
+        mine = whole[grid_positions(flexibility)]
+        nodes = np.flatnonzero(mine)
+        before = tracker.products
+        weights = tracker.weights(nodes, mine, single)
+        kappa = -(inverse[:, ~whole].sum(axis=1))
+        expected = EDGE_SHARE * np.minimum(np.maximum(kappa, 0.0), EDGE_CAP * inverse[0, 0])
+        since = 0 if tracker.products > before else since + int(np.unique(flips).size if step else 0)
+        products += tracker.products - before
+        bound = EDGE_SHARE * since * pc.tail + 1e-6 * inverse[0, 0]          # A 1_S kept in float32
+        np.testing.assert_allclose(weights, expected[grid_positions(flexibility)[nodes]], rtol=0, atol=bound)
+    assert products == tracker.products and 2 <= products < 9      # the first, step 6, a refresh
+    assert 0.0 < pc.tail < 0.05 * inverse[0, 0]

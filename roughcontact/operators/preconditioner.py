@@ -59,7 +59,7 @@ import numpy as np
 
 from ..errors import ConvergenceError
 from .convolution import SlabConvolution
-from .kernel import punch_kernel
+from .kernel import mirrored_kernel, punch_kernel
 
 #: the share of κ the edge correction removes, and its cap in units of C⁻¹'s diagonal. On the fixed
 #: solved set of the large-grid scene at 512² / 1024² / 2048² (benchmarks/bench_deflation.py, PCG
@@ -69,6 +69,15 @@ from .kernel import punch_kernel
 #: leaves them none (32 at 512²)
 EDGE_SHARE = 0.8
 EDGE_CAP = 0.5
+#: the half-width (nodes) of the window of A = C⁻¹ through which tracked edge weights follow small
+#: changes of the set (:class:`EdgeWeights`): beyond it |A_ij| is at most 1.2e-5 of A_ii (512² and
+#: 2048²). At 4096² a radius of 8 (|A_ij| up to 8e-5 beyond) took 43 fine iterations, 16 took 42,
+#: a product at every change 41; the 28 updates of 33 × 33 windows took 0.81 s, 36 products 3.5 s
+EDGE_RADIUS = 16
+#: tracked weights are made again by a product when more than one node in this many changed at once
+EDGE_UPDATES = 1000
+#: ... or after this many updates through windows, so that what the windows leave out cannot pile up
+EDGE_REFRESH = 8
 
 
 def wrapped_kernel(shape: tuple[int, int], spacing: float, compliance: float,
@@ -88,6 +97,7 @@ class FourierPreconditioner:
 
     def __init__(self, flexibility):
         self.layout = flexibility.layout
+        self.comm = flexibility.comm
         shape = flexibility.shape
         self.convolution = SlabConvolution(shape, flexibility.comm, periodic=True,
                                            workers=flexibility.convolution.workers)
@@ -108,6 +118,8 @@ class FourierPreconditioner:
         self.convolution.release_buffers()
         self.inverse_diagonal, self.inverse_row_sum = (float(v) for v in flexibility.comm.allreduce(
             np.array([column[0, 0] if first else 0.0, column.sum()])))
+        # A's window for tracked edge weights, and the most it leaves out per changed node
+        self.window, self.tail = self._edge_window(column)
 
     def apply_nodes(self, values: np.ndarray, nodes: np.ndarray, single: bool = False,
                     edge: np.ndarray | None = None) -> np.ndarray:
@@ -125,8 +137,51 @@ class FourierPreconditioner:
         e_i = share · min(max(κ_i, 0), EDGE_CAP · A_ii), κ_i = Σ_{j∉S} (−A_ij) = (A 1_S)_i − a₀,
         so that R_S C⁻¹ R_Sᵀ g − e ∘ g is the corrected preconditioner on S. One periodic product
         (in single precision with ``single``); collective."""
-        weights = self._restricted(1.0, nodes, single)                     # (A 1_S)_i on S
-        weights -= self.inverse_row_sum
+        return self.weights_from_sums(self._restricted(1.0, nodes, single), share)    # (A 1_S)_i on S
+
+    def _edge_window(self, column: np.ndarray) -> tuple[np.ndarray | None, float]:
+        """A's window over the signed offsets within EDGE_RADIUS, (2R + 1)², from this rank's rows
+        of its column at node (0, 0) (every rank gets all of it), and the largest |A_ij| outside
+        it; (None, inf) on a grid whose period the window would reach round."""
+        reach = EDGE_RADIUS
+        nx, ny = self.layout.shape
+        if min(nx, ny) < 2 * reach + 2:
+            return None, np.inf
+        r0, r1 = self.convolution.rows
+        i = np.arange(r0, r1)
+        near_i = np.minimum(i, nx - i) <= reach
+        j = np.arange(ny)
+        near_j = np.minimum(j, ny - j) <= reach
+        outside = np.abs(column[~near_i]).max(initial=0.0)
+        outside = max(outside, np.abs(column[near_i][:, ~near_j]).max(initial=0.0))
+        mine = [(int(row), column[row - r0, :reach + 1]) for row in range(r0, min(r1, reach + 1))]
+        quadrant = np.empty((reach + 1, reach + 1))
+        for part in self.comm.allgather(mine):
+            for row, values in part:
+                quadrant[row] = values
+        tail = float(self.comm.allreduce(outside, op=_max()))
+        return mirrored_kernel(quadrant).astype(np.float32), tail
+
+    def add_windows(self, field: np.ndarray, nodes: np.ndarray, signs: np.ndarray) -> None:
+        """field += Σ sign · A's window around each of this rank's ``nodes`` (local indices), on
+        this rank's slab rows, wrapped like C; collective: every rank adds the windows of every
+        rank's nodes that reach its rows."""
+        nx, ny = self.layout.shape
+        r0, r1 = self.layout.rows
+        positions = self.layout.positions[nodes]
+        mine = np.column_stack([positions // ny + r0, positions % ny, signs])
+        every = np.concatenate(self.comm.allgather(mine)) if self.comm.Get_size() > 1 else mine
+        offsets = np.arange(-EDGE_RADIUS, EDGE_RADIUS + 1)
+        rows = (every[:, 0:1].astype(np.intp) + offsets) % nx                 # (K, 2R + 1)
+        columns = (every[:, 1:2].astype(np.intp) + offsets) % ny
+        k, a = np.nonzero((rows >= r0) & (rows < r1))                         # window rows on this rank
+        flat = ((rows[k, a] - r0) * ny)[:, None] + columns[k]
+        values = every[k, 2:3].astype(np.float32) * self.window[a]
+        np.add.at(field.reshape(-1), flat.reshape(-1), values.reshape(-1))
+
+    def weights_from_sums(self, sums: np.ndarray, share: float) -> np.ndarray:
+        """e_i = share · min(max(κ_i, 0), EDGE_CAP · A_ii) from (A 1_S)_i on S, float64."""
+        weights = np.asarray(sums, dtype=float) - self.inverse_row_sum
         np.clip(weights, 0.0, EDGE_CAP * self.inverse_diagonal, out=weights)
         weights *= share
         return weights
@@ -143,3 +198,56 @@ def _min():
     from mpi4py import MPI
 
     return MPI.MIN
+
+
+def _max():
+    from mpi4py import MPI
+
+    return MPI.MAX
+
+
+class EdgeWeights:
+    """The edge correction's weights on a free set that changes from one call to the next.
+
+    κ needs (A 1_S) at every node of S, one periodic product of the set's
+    indicator (:meth:`FourierPreconditioner.edge_weights`). Late in a solve S
+    changes by a few nodes per iteration, and A = C⁻¹ decays like 1/r³: the
+    field A 1_S is kept for the whole grid and follows a change through the
+    (2 EDGE_RADIUS + 1)² window of A around each node that entered (+) or left
+    (−) the set, wrapped like C. What the windows leave out, A beyond
+    EDGE_RADIUS nodes, is at most ``tail`` (the largest |A_ij| there) per
+    changed node; the field is made again by the product when more than one
+    node in EDGE_UPDATES changed at once or after EDGE_REFRESH updates.
+    """
+
+    def __init__(self, preconditioner: FourierPreconditioner, share: float = EDGE_SHARE):
+        self.pc = preconditioner
+        self.share = share
+        self.sums: np.ndarray | None = None      # A 1_S on this rank's slab rows, float32
+        self.members: np.ndarray | None = None   # S of those sums, a mask over this rank's nodes
+        self.updates = 0                         # window updates since the last product
+        self.products = 0                        # periodic products taken
+
+    def weights(self, nodes: np.ndarray, members: np.ndarray, single: bool = False) -> np.ndarray:
+        """The weights on S, given by this rank's node indices ``nodes`` and as a mask ``members``
+        over this rank's nodes (the same set); collective."""
+        pc = self.pc
+        trackable = pc.window is not None and self.sums is not None and self.updates < EDGE_REFRESH
+        if trackable:
+            changed = np.flatnonzero(np.not_equal(members, self.members))
+            total = int(pc.comm.allreduce(changed.size))
+            trackable = total <= pc.layout.size // EDGE_UPDATES
+        if trackable:
+            if total:
+                signs = np.where(members[changed], 1.0, -1.0)
+                pc.add_windows(self.sums, changed, signs)
+                self.members[changed] = members[changed]
+                self.updates += 1
+        else:
+            # the product's own result (a fresh array, contiguous on the periodic grid) is kept
+            self.sums = np.ascontiguousarray(pc.convolution.apply_at(1.0, pc.layout.positions[nodes], single),
+                                             dtype=np.float32)
+            self.members = members.copy()
+            self.updates = 0
+            self.products += 1
+        return pc.weights_from_sums(self.sums.reshape(-1)[pc.layout.positions[nodes]], self.share)

@@ -32,7 +32,8 @@ per node per rank on 1, 2, 4 ranks: 1024² 309, 168, 91; 2048² 298, 161, 85; 40
 78 — a fit N (R + D/ranks) gives R = 10–21, D = 276–289 (docs/solvers.md); 8192² on 4 ranks
 with the surface by rows, 74. With the transforms' blocks above 32 MiB kept on the heap
 (:mod:`.heap`, from 2048² nodes per rank): 2048² 307, 152, 78; 4096² on one rank 298; and
-the single-precision transform buffers inside the double ones: 2048² 283, 142, 74; 4096² 274. The constants bound
+the single-precision transform buffers inside the double ones: 2048² 283, 142, 74; 4096² 274;
+and the CG's tracked edge weights (A 1_S in float32): 2048² 283, 148, 78; 4096² 282. The constants bound
 every one of these from above, and the same solve with the default, gathered result (1024²:
 309, 162, 102; 2048²: 298, 168, 102). ``"fft-periodic"`` makes its whole
 Ewald-summed table once at set-up (8 B/node, transient). Explicit blocks of H_SS (small contact

@@ -59,13 +59,10 @@ class NearField:
         indices), ``out`` this rank's nodal vector; collective: every rank adds the windows of
         every rank's forces that reach its rows."""
         ny = self.shape[1]
-        positions = self.positions[nodes]
-        mine = np.column_stack([positions // ny + self.rows[0], positions % ny, forces])
-        gathered = self.comm.allgather(mine) if self.comm.Get_size() > 1 else [mine]
         field = out.reshape(self.rows[1] - self.rows[0], ny)
         r0, r1 = self.rows
         reach, window = self.radius, self.window
-        for block in gathered:
+        for block in gathered_centres(self.comm, self.rows, ny, self.positions[nodes], forces):
             for row, column, force in block:
                 row, column = int(row), int(column)
                 top, bottom = max(row - reach, r0), min(row + reach + 1, r1)
@@ -74,6 +71,13 @@ class NearField:
                 left, right = max(column - reach, 0), min(column + reach + 1, ny)
                 part = window[top - row + reach:bottom - row + reach, left - column + reach:right - column + reach]
                 field[top - r0:bottom - r0, left:right] += (sign * force) * part
+
+
+def gathered_centres(comm, rows: tuple[int, int], ny: int, positions: np.ndarray, values) -> list[np.ndarray]:
+    """(grid row, grid column, value) of this rank's slab ``positions`` (on ``rows`` of a grid
+    ``ny`` wide) and of every other rank's, one (K, 3) block per rank; collective."""
+    mine = np.column_stack([positions // ny + rows[0], positions % ny, values])
+    return comm.allgather(mine) if comm.Get_size() > 1 else [mine]
 
 
 class PendingFarField:

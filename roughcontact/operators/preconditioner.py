@@ -60,6 +60,7 @@ import numpy as np
 from ..errors import ConvergenceError
 from .convolution import SlabConvolution
 from .kernel import mirrored_kernel, punch_kernel
+from .near_field import gathered_centres
 
 #: the share of κ the edge correction removes, and its cap in units of C⁻¹'s diagonal. On the fixed
 #: solved set of the large-grid scene at 512² / 1024² / 2048² (benchmarks/bench_deflation.py, PCG
@@ -170,9 +171,7 @@ class FourierPreconditioner:
         rank's nodes that reach its rows."""
         nx, ny = self.layout.shape
         r0, r1 = self.layout.rows
-        positions = self.layout.positions[nodes]
-        mine = np.column_stack([positions // ny + r0, positions % ny, signs])
-        every = np.concatenate(self.comm.allgather(mine)) if self.comm.Get_size() > 1 else mine
+        every = np.concatenate(gathered_centres(self.comm, self.layout.rows, ny, self.layout.positions[nodes], signs))
         reach = self.window.shape[0] // 2
         offsets = np.arange(-reach, reach + 1)
         # in chunks of nodes: the index arrays of one chunk are (chunk × (2R + 1)²) values, 9 MB
@@ -239,7 +238,9 @@ class EdgeWeights:
         """The weights on S, given by this rank's node indices ``nodes`` and as a mask ``members``
         over this rank's nodes (the same set); collective."""
         pc = self.pc
-        trackable = pc.window is not None and self.sums is not None and self.updates < EDGE_REFRESH
+        if pc.window is None:                    # a grid the window would wrap round: the product
+            return pc.edge_weights(nodes, single, self.share)
+        trackable = self.sums is not None and self.updates < EDGE_REFRESH
         if trackable:
             changed = np.flatnonzero(np.not_equal(members, self.members))
             total = int(pc.comm.allreduce(changed.size))

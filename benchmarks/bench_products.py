@@ -5,7 +5,8 @@ The targets of the constrained CG are stated in FFT-pair equivalents: the
 wall time of one solve (set-up and the coarse-to-fine start included)
 divided by the time of one forward and inverse real 2-D FFT of the padded
 grid (``scipy.fft.rfft2`` + ``irfft2`` of (Lx, Ly) in double, the same
-threads, median of 15, measured once per grid just before its solves), so
+threads, median of 15, measured once per grid just before its solves, on
+heap pages the process keeps: ``heap.hold_touched_pages``), so
 the ratio depends less on how busy the machine is. For each grid and each
 precision of the CG (``CGSettings.precision``), share of the
 preconditioner's edge correction (``--edge-shares``, ``CGSettings.edge_share``)
@@ -23,7 +24,12 @@ midpoint, Δ = 2.3, ν = 0, about 1.4 % of the nodes in contact) at 513², norma
 
     python -m benchmarks.bench_products [--sizes 256 512 1024 2048] [--scenes scene full]
         [--precisions double mixed] [--edge-shares 0.8] [--defers 1] [--sweep 513] [--ranks 1]
-        [--output results/bench_products.json]
+        [--warm-heap GIB] [--output results/bench_products.json]
+
+``--warm-heap`` touches that much heap per rank before the solves and keeps it, so that a solve
+does not pay the first touch of its memory: on a virtual machine that reports freed pages to its
+host that first touch costs about 2 s per GiB (docs/solvers.md, "First touches on a virtual
+machine"), 5-7 s of a 4096² solve.
 
 Times are medians of ``--repeats`` runs (one at 2048² and above).
 """
@@ -93,6 +99,13 @@ def worker(args) -> None:
     from roughcontact.operators.convolution import SlabConvolution
 
     comm = MPI.COMM_WORLD
+    from roughcontact.operators.heap import hold_touched_pages
+
+    # freed pages stay with the process, so that the FFT pair's repeats reuse theirs (given back,
+    # its 1 GiB blocks at 4096² took 1.18 s per pair against 0.58 s on a virtual machine that
+    # reports free pages to its host); --warm-heap also has the solves' pages touched beforehand
+    if not hold_touched_pages(int(args.warm_heap * 2**30)) and args.warm_heap > 0:
+        raise SystemExit("--warm-heap needs glibc and ROUGHCONTACT_HEAP unset")
     rows: list[dict] = []
     for scene in args.scenes:
         for n in args.sizes:
@@ -125,6 +138,7 @@ def worker(args) -> None:
                         "fft_pair_seconds": pair, "fft_pairs": seconds / pair,
                         "fine_iterations": result.linear_iterations, "coarse_iterations": result.coarse_iterations,
                         "fine_products": counts[variant], "contact_fraction": result.contact_fraction,
+                        "warm_heap_gib": args.warm_heap,
                         "residual": result.residual})
     if args.sweep:
         rows.extend(sweep_rows(comm, args))
@@ -179,13 +193,17 @@ def main() -> None:
                         help="CGSettings.edge_share of each normal row (0: the plain preconditioner)")
     parser.add_argument("--defers", type=float, nargs="+", default=[CGSettings().defer],
                         help="CGSettings.defer of each normal row (0: every cut takes its product)")
+    parser.add_argument("--warm-heap", type=float, default=0.0, metavar="GIB",
+                        help="touch and keep this many GiB of heap per rank before the solves, so that "
+                             "they run on pages the system already backs (roughcontact.operators.heap."
+                             "hold_touched_pages; 0: none)")
     args = parser.parse_args()
     if args.worker:
         return worker(args)
     rows = run_on_ranks(__spec__.name, args.ranks, [
         "--repeats", str(args.repeats), "--sizes", *map(str, args.sizes), "--scenes", *args.scenes,
         "--precisions", *args.precisions, "--sweep", str(args.sweep), "--edge-shares", *map(str, args.edge_shares),
-        "--defers", *map(str, args.defers)])
+        "--defers", *map(str, args.defers), "--warm-heap", str(args.warm_heap)])
     save_json(rows, args.output)
 
 

@@ -13,7 +13,12 @@ such blocks come from the heap and their pages stay with the process for the nex
 size. The cost: memory freed by the process stays resident until it exits or
 :func:`release_free_blocks` is called (the peak itself is not raised: the same blocks are
 reused). Set ``ROUGHCONTACT_HEAP=system`` in the environment to leave the allocator as it
-is. Elsewhere than glibc both functions do nothing.
+is. Elsewhere than glibc these functions do nothing.
+
+:func:`hold_touched_pages` is for measurements: it keeps every freed page in the process and
+can touch a given amount beforehand, so that a timed solve does not pay the first touch of its
+memory, which on a virtual machine that reports freed pages to its host costs about 20 times
+what it costs on pages the host still backs.
 """
 from __future__ import annotations
 
@@ -59,6 +64,31 @@ def retain_large_blocks() -> bool:
         return False
     _retained = bool(libc.mallopt(M_MMAP_THRESHOLD, LARGEST) == 1 and libc.mallopt(M_TRIM_THRESHOLD, LARGEST) == 1)
     return _retained
+
+
+def hold_touched_pages(nbytes: int = 0) -> bool:
+    """Keep every freed page in the process (glibc's trim threshold set to never, process-wide),
+    after touching and freeing ``nbytes`` of heap, so that the blocks made afterwards reuse pages
+    the system has already backed; True where that was done (glibc, ``ROUGHCONTACT_HEAP`` not
+    ``system``).
+
+    For measurements on virtual machines whose balloon device reports freed guest pages to the
+    host (virtio-balloon free page reporting): there the first touch of memory the guest freed
+    more than a few seconds before is a fault on the host, about 2 s per GiB on this project's
+    machines against 0.1 s per GiB for pages the host still backs, so a one-solve process pays
+    it for its whole peak, and a transform whose freed blocks go back to the system pays it at
+    every call (docs/solvers.md, "First touches on a virtual machine").
+    """
+    if not retain_large_blocks():
+        return False
+    _libc().mallopt(M_TRIM_THRESHOLD, -1)
+    if nbytes > 0:
+        import numpy as np
+
+        block = LARGEST // 2
+        blocks = [np.ones(min(block, nbytes - start) // 8) for start in range(0, nbytes, block)]
+        del blocks
+    return True
 
 
 def release_free_blocks() -> None:

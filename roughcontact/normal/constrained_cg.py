@@ -105,11 +105,19 @@ class CGSettings:
         1 E*) it let 2–4 % of S flip in every iteration for a hundred
         iterations without a restart: the residual stood at 1e-2 (a 512²
         level of a 2048² start: 237 iterations, 60 with 0.02; the whole
-        2048² solve 101 → 63 s; seed 2 at 1024² 12.0 → 8.7 s). 0.02 is the
-        default: on sparse contact the same to ±2 iterations (2048²: 35
-        against 37); near full contact at 512² and 1024² on five surfaces,
-        fine + coarse iterations 0.97–1.12 of those with 0.05 except the
-        stalled one (0.51), wall time 0.95 of it in all.
+        2048² solve 101 → 63 s; seed 2 at 1024² 12.0 → 8.7 s). 0.02 then
+        took the same to ±2 iterations on sparse contact (2048²: 35 against
+        37) and 0.97–1.12 of the fine + coarse iterations near full contact
+        (512² and 1024², five surfaces), except the stalled one (0.51). With
+        the edge correction and deferred far fields, 0.01 is the default: at
+        4096² the sets of 310 k nodes shed 1–3 k nodes (0.5–1 %) per
+        iteration for 8 iterations without a restart while the residual
+        stood at 1–2e-4; fine iterations 0.02 → 0.01: the large-grid scene
+        256² to 2048² 14 / 15 / 17 / 26 both, 4096² 42 → 38 (cold solves
+        42.2 / 42.3 → 39.9 / 39.6 s); near full contact 256² to 2048² 35 →
+        35, 44 → 43, 67 → 64, 160 → 146; the stability map 3265 → 3210
+        iterations, 120 / 120 converged both, no cell above 1.18 times.
+        0.005: 4096² 40, near full contact at 1024² 72.
     renew
         Also restart when the free set changed at all since the last restart
         and this many iterations have passed: small changes that each stay
@@ -181,7 +189,7 @@ class CGSettings:
     max_iterations: int = 5000
     preconditioner: str = "fourier"
     refresh: int = 50
-    restart: float = 0.02
+    restart: float = 0.01
     renew: int = 8
     load_tol: float = 1e-8
     max_newton: int = 50

@@ -114,6 +114,37 @@ def test_product_of_a_sparse_field_equals_the_product_of_the_whole_field(comm, k
 
 
 @pytest.mark.parametrize("kind", ["fft", "fft-periodic"])
+def test_a_transform_of_occupied_rows_only_equals_the_whole_one(comm, kind, monkeypatch):
+    """product_at transforms along y only the runs of rows that hold values where that skips
+    enough points (convolution.RUN_POINTS); forced on every sparse field (RUN_POINTS = 0) and
+    forced off (no field qualifies), the products agree bit for bit (rtol 0, atol 0) with each
+    other and with the whole field's product: the rows left out have zero spectra, and each
+    row's transform is the same 1-D transform either way. Fields: blocks of rows, single rows,
+    the first and last rows, nothing at all; single and double precision."""
+    from roughcontact.operators import convolution
+
+    n = 40
+    fft = Flexibility(topography(n, "square"), ROCK, comm, kind=kind)
+    rng = np.random.default_rng(3)
+    local = fft.layout.local_nodes()[:, 0]                  # the grid row of each of this rank's nodes
+    patterns = [np.isin(local, np.r_[3:9, 20:23]), np.isin(local, [0, n - 1]), local % 7 == 2,
+                np.zeros(local.size, dtype=bool), np.isin(local, np.r_[10:30])]
+    for single in (False, True):
+        for rows in patterns:
+            nodes = np.flatnonzero(rows & (rng.random(local.size) < 0.5))
+            values = rng.standard_normal(nodes.size)
+            products = []
+            for points in (0, 10**12):
+                monkeypatch.setattr(convolution, "RUN_POINTS", points)
+                products.append(fft.product_at(values, nodes, single))
+            whole = np.zeros(fft.layout.local_size)
+            whole[nodes] = values
+            np.testing.assert_array_equal(products[0], products[1])
+            np.testing.assert_array_equal(products[0], fft.product(whole, single))
+    fft.destroy()
+
+
+@pytest.mark.parametrize("kind", ["fft", "fft-periodic"])
 def test_products_of_both_precisions_share_one_buffer(comm, kind):
     """Single and double products share one padded storage (the single buffers are the first
     half of the double ones' bytes): in any order of precisions, of whole and of sparse fields,

@@ -63,6 +63,13 @@ LOCAL_RANKS_VARIABLES = ("MPI_LOCALNRANKS", "OMPI_COMM_WORLD_LOCAL_SIZE", "SLURM
 #: with one thread against two: 0.06 against 0.41 ms at 33², 0.7 against 1.0 ms
 #: at 129², even at 257², 13 against 10 ms at 513², 75 against 59 ms at 1025².
 THREADED_POINTS = 512 * 512
+#: what one more call of the transform along y costs, in points transformed: a sparse field's
+#: transform takes only the runs of rows that hold its values where the points of the rows it
+#: skips exceed this many per run (:meth:`SlabConvolution._transform`). Rows of 8192 points
+#: (4096² padded, single precision), medians of 6 products taking every run alone against all
+#: rows: one occupied row in two 343 against 300 ms, one in four 308 against 296 ms, one run of
+#: half the rows 276 against 290 ms
+RUN_POINTS = 40000
 
 
 def default_workers(comm) -> int:
@@ -212,7 +219,9 @@ class SlabConvolution:
             rows.reshape(-1)[last] = 0.0
         rows.reshape(-1)[index] = values
         self._written[single] = index
-        return self._filtered(self._transform(single), single)
+        occupied = np.zeros(rows.shape[0], dtype=bool)
+        occupied[positions // ny] = True
+        return self._filtered(self._transform(single, occupied), single)
 
     def _filtered(self, spectrum: np.ndarray, single: bool) -> np.ndarray:
         """The product from the field's transform: times the symbol, transformed back."""
@@ -261,11 +270,31 @@ class SlabConvolution:
         self._holder = single
         return buffers
 
-    def _transform(self, single: bool) -> np.ndarray:
-        """The 2-D transform of the rows buffer of one precision as it stands."""
+    def _transform(self, single: bool, occupied: np.ndarray | None = None) -> np.ndarray:
+        """The 2-D transform of the rows buffer of one precision as it stands; ``occupied``: a
+        mask of the rows that may hold values (the others are zero), or None for all.
+
+        Where the rows left out outweigh the calls (:data:`RUN_POINTS`), only the runs of
+        occupied rows are transformed along y and the other rows' spectra are zeros: the contact
+        set of the large-grid scene at 4096² lies on 47 % of the rows, the forces a cut restores
+        on 0.3-44 %.
+        """
         rows, columns = self._buffers[single]
-        spectra = sfft.rfft(rows, axis=1, workers=self.workers)
-        self._to_columns(spectra, out=columns)
+        count = rows.shape[0]
+        runs = _runs(occupied) if occupied is not None and count else None
+        if runs is None or (count - np.count_nonzero(occupied)) * self.lengths[1] <= RUN_POINTS * len(runs):
+            self._to_columns(sfft.rfft(rows, axis=1, workers=self.workers), out=columns)
+        else:
+            # one rank: straight into the columns buffer, whose first nx rows are its rows
+            spectra = columns[:count] if self.size == 1 else np.empty((count, self.columns), columns.dtype)
+            done = 0
+            for start, stop in runs:
+                spectra[done:start] = 0.0
+                spectra[start:stop] = sfft.rfft(rows[start:stop], axis=1, workers=self.workers)
+                done = stop
+            spectra[done:] = 0.0
+            if self.size > 1:
+                self._to_columns(spectra, out=columns)
         columns[self.shape[0]:] = 0.0
         return sfft.fft(columns, axis=0, overwrite_x=True, workers=self.workers)
 
@@ -345,6 +374,12 @@ class SlabConvolution:
         finally:
             for kind in created:
                 kind.Free()
+
+
+def _runs(mask: np.ndarray) -> np.ndarray:
+    """(start, stop) of each run of True in a 1-D boolean mask, shape (runs, 2)."""
+    edges = np.flatnonzero(np.diff(mask.view(np.int8), prepend=np.int8(0), append=np.int8(0)))
+    return edges.reshape(-1, 2)
 
 
 def _leading(block: np.ndarray, dtype) -> np.ndarray:

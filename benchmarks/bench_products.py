@@ -97,14 +97,15 @@ def worker(args) -> None:
 
     from roughcontact.normal.constrained_cg import CGSettings
     from roughcontact.operators.convolution import SlabConvolution
-
-    comm = MPI.COMM_WORLD
     from roughcontact.operators.heap import hold_touched_pages
 
+    comm = MPI.COMM_WORLD
     # freed pages stay with the process, so that the FFT pair's repeats reuse theirs (given back,
     # its 1 GiB blocks at 4096² took 1.18 s per pair against 0.58 s on a virtual machine that
-    # reports free pages to its host); --warm-heap also has the solves' pages touched beforehand
-    if not hold_touched_pages(int(args.warm_heap * 2**30)) and args.warm_heap > 0:
+    # reports free pages to its host); --warm-heap also has the solves' pages touched beforehand.
+    # Where the allocator is left alone (not glibc, ROUGHCONTACT_HEAP=system) the rows say so
+    held = hold_touched_pages(int(args.warm_heap * 2**30))
+    if not held and args.warm_heap > 0:
         raise SystemExit("--warm-heap needs glibc and ROUGHCONTACT_HEAP unset")
     rows: list[dict] = []
     for scene in args.scenes:
@@ -138,7 +139,7 @@ def worker(args) -> None:
                         "fft_pair_seconds": pair, "fft_pairs": seconds / pair,
                         "fine_iterations": result.linear_iterations, "coarse_iterations": result.coarse_iterations,
                         "fine_products": counts[variant], "contact_fraction": result.contact_fraction,
-                        "warm_heap_gib": args.warm_heap,
+                        "warm_heap_gib": args.warm_heap, "pages_held": held,
                         "residual": result.residual})
     if args.sweep:
         rows.extend(sweep_rows(comm, args))
@@ -198,6 +199,8 @@ def main() -> None:
                              "they run on pages the system already backs (roughcontact.operators.heap."
                              "hold_touched_pages; 0: none)")
     args = parser.parse_args()
+    if not args.warm_heap >= 0.0:
+        parser.error(f"--warm-heap must be >= 0 GiB, got {args.warm_heap}")
     if args.worker:
         return worker(args)
     rows = run_on_ranks(__spec__.name, args.ranks, [

@@ -211,7 +211,8 @@ class SlabConvolution:
         sparse x (a contact set) that saves zeroing a slab of N values and copying it in."""
         rows = self._padded(single)[0]
         ny, ly = self.shape[1], self.lengths[1]
-        index = positions if ly == ny else (positions // ny) * ly + positions % ny
+        row = positions // ny
+        index = positions if ly == ny else row * ly + positions % ny
         last = self._written.get(single)
         if last is None:
             rows[:, :ny] = 0.0
@@ -220,7 +221,7 @@ class SlabConvolution:
         rows.reshape(-1)[index] = values
         self._written[single] = index
         occupied = np.zeros(rows.shape[0], dtype=bool)
-        occupied[positions // ny] = True
+        occupied[row] = True
         return self._filtered(self._transform(single, occupied), single)
 
     def _filtered(self, spectrum: np.ndarray, single: bool) -> np.ndarray:

@@ -27,6 +27,8 @@ import ctypes.util
 import os
 import platform
 
+import numpy as np
+
 #: mallopt's parameters (malloc.h)
 M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3
 #: glibc's largest dynamic mmap threshold on 64-bit systems: blocks above it are always mapped
@@ -83,8 +85,6 @@ def hold_touched_pages(nbytes: int = 0) -> bool:
         return False
     _libc().mallopt(M_TRIM_THRESHOLD, -1)
     if nbytes > 0:
-        import numpy as np
-
         block = LARGEST // 2
         blocks = [np.ones(min(block, nbytes - start) // 8) for start in range(0, nbytes, block)]
         del blocks

@@ -475,6 +475,33 @@ def test_mixed_precision_falls_back_to_double_where_it_stalls(comm):
     problem.destroy()
 
 
+@pytest.mark.parametrize("load", [3.0, 10.0])
+def test_powells_test_restarts_where_the_set_changes_the_gap(comm, load):
+    """Pressed into full contact (64² at 3 and 10 E* × area) the free set grows from the Winkler
+    start's: the conjugate directions made on the earlier sets are far from conjugate on the
+    later ones. Powell's test (restart 0.2) restarts them there and keeps them elsewhere, and
+    takes fewer iterations than never restarting (26 / 29 against 34 / 58) or restarting at
+    every step (77 / 75; preconditioned steepest descent), the same on 1 and 2 ranks. All three
+    reach the same state: the restarts change the path only."""
+    topo = rough(64)
+    problem = NormalProblem(topo, FLAT, comm, operator="fft")
+    control = lambda s: s.solve_load(load * topo.nominal_area, rotation=(0.0, 0.0))    # noqa: E731
+    runs = {restart: solve(problem, "cg", control, settings=CGSettings(restart=restart))
+            for restart in (0.2, np.inf, 0.0)}
+    assert runs[0.2].full_contact
+    for other in (np.inf, 0.0):
+        assert_same_state(runs[0.2], runs[other])
+        assert runs[0.2].linear_iterations < runs[other].linear_iterations, \
+            {r: run.linear_iterations for r, run in runs.items()}
+    problem.destroy()
+
+
+@pytest.mark.parametrize("restart", [-0.1, float("nan")])
+def test_bad_restart_is_named(restart):
+    with pytest.raises(InputError, match="restart"):
+        CGSettings(restart=restart)
+
+
 def test_mixed_precision_takes_the_double_path_near_full_contact(comm):
     """The single products' errors pile up in the updated H p with the size of the steps since
     the last exact one, the first steps being of the size of the starting gap: near full contact

@@ -20,8 +20,8 @@ preconditioner:
    z = M g (M: the Fourier preconditioner of the set with its edge
    correction, :mod:`~roughcontact.operators.preconditioner`, the
    correction's weights made again whenever F changed), with its mean over F
-   removed so that Σ p stays P, made conjugate to the previous one unless F
-   changed by more than a fraction ``restart``;
+   removed so that Σ p stays P, made conjugate to the previous one unless the
+   gap is far from orthogonal to the previous z (Powell's test, ``restart``);
 3. the step α = gᵀz / dᵀHd (one FFT product per iteration), then
    p ← max(p − α d, 0) on F: interpenetrating nodes are loaded by the same
    preconditioned step as the others (giving each the force that would close
@@ -95,37 +95,36 @@ class CGSettings:
         Recompute H p from scratch every this many iterations without a change
         of S (otherwise it is updated by the step, which accumulates round-off).
     restart
-        Restart the conjugate directions when more than this fraction of S
-        left or entered it in one iteration. Restarting on every change turns
-        the tail of the iteration, where a few boundary nodes flip each time,
-        into preconditioned steepest descent; never restarting loses
-        conjugacy when S changes a lot. 0.05 took the fewest iterations on
-        sparse contact (self-affine surfaces from 256² to 1024² at 0.01 E*,
-        benchmarks/bench_normal_large.py), but near full contact (Δ = 2.5 at
-        1 E*) it let 2–4 % of S flip in every iteration for a hundred
-        iterations without a restart: the residual stood at 1e-2 (a 512²
-        level of a 2048² start: 237 iterations, 60 with 0.02; the whole
-        2048² solve 101 → 63 s; seed 2 at 1024² 12.0 → 8.7 s). 0.02 then
-        took the same to ±2 iterations on sparse contact (2048²: 35 against
-        37) and 0.97–1.12 of the fine + coarse iterations near full contact
-        (512² and 1024², five surfaces), except the stalled one (0.51). With
-        the edge correction and deferred far fields, 0.01 is the default: at
-        4096² the sets of 310 k nodes shed 1–3 k nodes (0.5–1 %) per
-        iteration for 8 iterations without a restart while the residual
-        stood at 1–2e-4; fine iterations 0.02 → 0.01: the large-grid scene
-        256² to 2048² 14 / 15 / 17 / 26 both, 4096² 42 → 38 (cold solves
-        42.2 / 42.3 → 39.9 / 39.6 s); near full contact 256² to 2048² 35 →
-        35, 44 → 43, 67 → 64, 160 → 146; the stability map 3265 → 3210
-        iterations, 120 / 120 converged both, no cell above 1.18 times.
-        0.005: 4096² 40, near full contact at 1024² 72.
+        Restart the conjugate directions where the new gap is far from
+        orthogonal to the last preconditioned one, |g_kᵀ z_{k−1}| ≥
+        ``restart`` · g_kᵀ z_k (Powell's test; on a fixed set CG keeps
+        g_kᵀ z_{k−1} = 0): a change of the free set spoils conjugacy in
+        proportion to what it changes in the gap, not to how many nodes it
+        moves. It replaced a restart when more than 1 % of the set changed,
+        which near full contact (Δ = 2.5, 1 E*; sets of 3.6 M nodes at
+        2048²) let 10–40 k nodes change per iteration without a restart while
+        the residual rose from 8e-4 to 2e-2, and restarted through the first
+        39 iterations. Fine iterations (coarse in brackets), 1 % of the set →
+        Powell's test at 0.2: near full contact 256² / 512² / 1024² / 2048²
+        31 / 40 / 56 / 147 (84) → 32 / 38 / 44 / 63 (30); the large-grid
+        scene 512² to 2048² 15 / 17 / 25 both, 4096² 39 (20) → 36 (15); the
+        stability map 2928 → 2781 iterations, 120 / 120 converged, no cell
+        above 1.09 times. 0.1 / 0.3 / 0.5: near full contact at 1024² 47 /
+        48 / 51, the scene at 2048² 25 / 25 / 31. Both tests together (1 %
+        and 0.2): near full contact at 2048² 80; 5 % and 0.2: 71, 4096² 35.
+        Polak–Ribière's β (which also weighs g_kᵀ z_{k−1}) instead of
+        Fletcher–Reeves': no fewer anywhere.
     renew
-        Also restart when the free set changed at all since the last restart
-        and this many iterations have passed: small changes that each stay
-        below ``restart`` otherwise accumulate into directions that are far
-        from conjugate, and the iteration crawls even after the set has
-        settled (at 2048², 0.83 per iteration for 15 iterations on a fixed set;
-        57 iterations where renewing every 8 took 28). It made no difference
-        from 256² to 1024².
+        Also restart when the free set changed at all since the last such
+        restart (or one at a convergence check) and this many iterations
+        have passed: small changes that each pass ``restart`` otherwise
+        accumulate into directions that are far from conjugate, and the
+        iteration crawls even after the set has settled (at 2048², 0.83 per
+        iteration for 15 iterations on a fixed set; 57 iterations where
+        renewing every 8 took 28). It made no difference from 256² to
+        1024². Powell's restarts do not reset this count: resetting it took
+        near full contact at 1024² / 2048² 44 / 63 → 48 / 68 fine
+        iterations and the scene at 2048² 25 → 27.
     load_tol, max_newton
         Free rotation: the moment residual allowed (relative to P times the
         footprint's half-size) and the Newton steps on (θx, θy) (:mod:`.rigid_motion`).
@@ -197,7 +196,7 @@ class CGSettings:
     max_iterations: int = 5000
     preconditioner: str = "fourier"
     refresh: int = 50
-    restart: float = 0.01
+    restart: float = 0.2
     renew: int = 8
     load_tol: float = 1e-8
     max_newton: int = 50
@@ -211,6 +210,9 @@ class CGSettings:
                                                f"got {self.preconditioner!r}")
         if self.precision not in PRECISIONS:
             raise InputError("precision", f"must be one of {', '.join(PRECISIONS)}, got {self.precision!r}")
+        if not 0.0 <= self.restart:
+            raise InputError("restart", f"must be >= 0 (Powell's test: the directions restart where |g_kᵀ "
+                                        f"z_k-1| >= restart · g_kᵀ z_k; 0: every step), got {self.restart!r}")
         if not 0.0 <= self.defer < np.inf:
             raise InputError("defer", f"must be a finite share >= 0 of the gap's root mean square (0: "
                                       f"every cut takes its product at once), got {self.defer!r}")
@@ -352,6 +354,7 @@ class ConstrainedCGSolver(NormalSolver):
         exact = lambda: pb.displacement(forces, single and not forces_in_double)    # noqa: E731
         displacement = exact()
         direction = np.zeros_like(forces)              # zero outside the free set
+        last_z = np.zeros(forces.size, dtype=np.float32)   # z of the last iteration on its free set
         clipped = np.zeros_like(forces)                # c of the last cut at its nodes, zero elsewhere
         pending = self._pending()                      # cut forces whose far field waits (None: never)
         previous = None                                # gᵀz of the last iteration, None: restart
@@ -427,7 +430,7 @@ class ConstrainedCGSolver(NormalSolver):
                                          working.size]))
             changed_since = changed_since or counts[0] > 0
             since_restart += 1
-            if counts[0] > settings.restart * counts[1] or (changed_since and since_restart >= settings.renew):
+            if changed_since and since_restart >= settings.renew:
                 previous = None
             if previous is None:
                 since_restart, changed_since = 0, False
@@ -448,6 +451,10 @@ class ConstrainedCGSolver(NormalSolver):
                 # conjugate directions restart: the last ones were made with the corrected one
                 z, gz = self._direction(g, working, single, None, load is not None)
                 previous = None
+            if previous is not None and abs(float(pb.allsum(g @ last_z[working]))) >= settings.restart * gz:
+                previous = None                        # Powell's test (``CGSettings.restart``)
+            last_z[last] = 0.0
+            last_z[working] = z
             if previous is None or gz <= 0.0:
                 step_direction = z
             else:

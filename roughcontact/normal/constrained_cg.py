@@ -451,10 +451,16 @@ class ConstrainedCGSolver(NormalSolver):
                 # conjugate directions restart: the last ones were made with the corrected one
                 z, gz = self._direction(g, working, single, None, load is not None)
                 previous = None
-            if previous is not None and abs(float(pb.allsum(g @ last_z[working]))) >= settings.restart * gz:
+            if previous is not None and abs(float(pb.allsum(g @ np.take(last_z, working)))) >= settings.restart * gz:
                 previous = None                        # Powell's test (``CGSettings.restart``)
-            last_z[last] = 0.0
-            last_z[working] = z
+            # near full contact the sets hold most nodes: zeroing all N took 0.35 ms where zeroing
+            # 86 % of 2048² by index took 3.7 ms, and a scatter that converts 10.7 ms against
+            # 1.3 + 3.9 ms converted first
+            if last.size > last_z.size // 8:
+                last_z.fill(0.0)
+            else:
+                last_z[last] = 0.0
+            last_z[working] = z.astype(np.float32)
             if previous is None or gz <= 0.0:
                 step_direction = z
             else:

@@ -313,3 +313,30 @@ def test_a_lease_whose_pid_was_reused_is_stale_and_a_live_jobs_is_not(tmp_path):
             assert leases.claim(task) is None
     finally:
         leases.close()
+
+
+def test_an_empty_lease_is_stale_after_seconds_not_after_the_heartbeats_limit(tmp_path):
+    """A job aborted between creating a lease and writing its owner (a full disk on rank 0 while
+    its feeding thread claimed the next task) leaves it empty. With the age rule alone a resumed
+    run waited STALE_SECONDS (120 s) on it, past the fault test's limit. A live job writes the
+    owner within microseconds: an empty lease younger than EMPTY_SECONDS is left alone, an older
+    one is taken over (and then names this job)."""
+    import os
+    import time
+    from types import SimpleNamespace
+
+    from roughcontact.farm.leases import EMPTY_SECONDS, STALE_SECONDS, Leases
+
+    assert EMPTY_SECONDS < STALE_SECONDS
+    task = SimpleNamespace(key="abc")
+    leases = Leases(lambda t: tmp_path / f"task-{t.key}.nc")
+    lease = tmp_path / "task-abc.lease"
+    try:
+        lease.write_text("")
+        assert leases.claim(task) is None                                  # being written, maybe
+        old = time.time() - EMPTY_SECONDS - 1.0
+        os.utime(lease, (old, old))
+        assert leases.claim(task) is True
+        assert lease.read_text() == leases.owner
+    finally:
+        leases.close()

@@ -10,7 +10,9 @@ the lease has gone stale (its job died). A lease names its job (host, pid and
 start time of rank 0); it is stale when that process is gone (same host: no
 process with that pid, or one started at another time — pids are reused,
 32768 of them on many systems, and a dead job's pid taken by a live process
-once kept its leases alive for ever) or it has not been refreshed for
+once kept its leases alive for ever), it is empty and older than
+:data:`EMPTY_SECONDS` (its job died between creating and writing it), or it
+has not been refreshed for
 :data:`STALE_SECONDS` (any host: rank 0 touches its leases every
 :data:`HEARTBEAT_SECONDS`). It is removed once its task file is written.
 
@@ -32,6 +34,10 @@ from ..errors import InputError
 STALE_SECONDS = 120.0
 #: how often (s) rank 0 refreshes the leases it holds
 HEARTBEAT_SECONDS = 30.0
+#: an empty lease older than this (s) is stale: a live job writes its owner into the lease within
+#: microseconds of creating it, but a job aborted in between (a full disk on rank 0 while its feeding
+#: thread claimed the next task) left it empty, and a resumed run waited STALE_SECONDS on it
+EMPTY_SECONDS = 5.0
 
 
 class Leases:
@@ -119,6 +125,8 @@ class Leases:
             return False                          # being written or just removed: ask again
         if len(owner) in (2, 3) and owner[0] == socket.gethostname():
             return not _alive(int(owner[1]), owner[2] if len(owner) == 3 else None)
+        if not owner:                             # never written: its job died between open and write
+            return age > min(EMPTY_SECONDS, self.stale)
         return age > self.stale
 
 

@@ -340,3 +340,45 @@ def test_an_empty_lease_is_stale_after_seconds_not_after_the_heartbeats_limit(tm
         assert lease.read_text() == leases.owner
     finally:
         leases.close()
+
+
+def test_a_lease_of_an_exited_process_not_yet_reaped_is_stale(tmp_path):
+    """A job's rank 0 that has exited but is not yet reaped (a zombie) keeps its pid and start
+    time in /proc, and signal 0 still reaches it: by those alone its leases stayed alive, and a
+    resumed run waited on them for as long as the zombie lasted (for ever where an orphan's reaper
+    does not reap). Its state, Z, says it has exited."""
+    import os
+    import socket
+    import subprocess
+    import sys
+    import time
+    from types import SimpleNamespace
+
+    from roughcontact.farm.leases import Leases, start_time
+
+    child = subprocess.Popen([sys.executable, "-c", "pass"])
+    try:
+        deadline = time.monotonic() + 30.0
+        while True:                       # /proc, not poll(): poll() would reap the child
+            try:
+                with open(f"/proc/{child.pid}/stat") as stat:
+                    state = stat.read().rsplit(")", 1)[1].split()[0]
+            except OSError:
+                pytest.skip("/proc gives no process states here")
+            if state == "Z" or time.monotonic() > deadline:
+                break
+            time.sleep(0.01)
+        assert state == "Z"
+        started = start_time(child.pid)
+        os.kill(child.pid, 0)             # still there for signal 0
+        task = SimpleNamespace(key="abc")
+        leases = Leases(lambda t: tmp_path / f"task-{t.key}.nc")
+        lease = tmp_path / "task-abc.lease"
+        try:
+            lease.write_text(f"{socket.gethostname()} {child.pid} {started}")
+            assert leases.claim(task) is True
+            assert lease.read_text() == leases.owner
+        finally:
+            leases.close()
+    finally:
+        child.wait()

@@ -8,7 +8,9 @@ Lustre): one job gets it; the other leaves the task, and comes back to it
 after its other tasks, when the task's file has appeared (solved there) or
 the lease has gone stale (its job died). A lease names its job (host, pid and
 start time of rank 0); it is stale when that process is gone (same host: no
-process with that pid, or one started at another time — pids are reused,
+process with that pid, one that has exited and waits to be reaped (a zombie:
+its pid and start time stay in /proc until its parent reaps it, for ever
+where an orphan's reaper does not), or one started at another time — pids are reused,
 32768 of them on many systems, and a dead job's pid taken by a live process
 once kept its leases alive for ever), it is empty and older than
 :data:`EMPTY_SECONDS` (its job died between creating and writing it), or it
@@ -141,14 +143,27 @@ def start_time(pid: int) -> str:
         return "-"
 
 
+def _state(pid: int) -> str:
+    """Process ``pid``'s state letter (/proc/<pid>/stat field 3: "Z" exited and not yet reaped),
+    or "-" where /proc does not say."""
+    try:
+        with open(f"/proc/{pid}/stat") as stat:
+            return stat.read().rsplit(")", 1)[1].split()[0]
+    except (OSError, IndexError):
+        return "-"
+
+
 def _alive(pid: int, started: str | None = None) -> bool:
-    """Whether process ``pid`` exists and, when ``started`` is known, is the one started then."""
+    """Whether process ``pid`` exists, has not exited (a zombie, not yet reaped by its parent, has)
+    and, when ``started`` is known, is the one started then."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
     except PermissionError:
         pass
+    if _state(pid) in ("Z", "X"):
+        return False
     if started is None or started == "-":
         return True
     now = start_time(pid)

@@ -132,25 +132,28 @@ class Leases:
         return age > self.stale
 
 
+def _stat(pid: int) -> list[str] | None:
+    """The fields of /proc/<pid>/stat after the command name (the first: the state), or None where
+    /proc does not say."""
+    try:
+        with open(f"/proc/{pid}/stat") as stat:
+            return stat.read().rsplit(")", 1)[1].split()
+    except (OSError, IndexError):
+        return None
+
+
 def start_time(pid: int) -> str:
     """When process ``pid`` started (clock ticks since boot, /proc/<pid>/stat field 22), or "-"
     where /proc does not say (then only the pid identifies the process)."""
-    try:
-        with open(f"/proc/{pid}/stat") as stat:
-            fields = stat.read().rsplit(")", 1)[1].split()
-        return fields[19]
-    except (OSError, IndexError):
-        return "-"
+    fields = _stat(pid)
+    return fields[19] if fields is not None and len(fields) > 19 else "-"
 
 
 def _state(pid: int) -> str:
     """Process ``pid``'s state letter (/proc/<pid>/stat field 3: "Z" exited and not yet reaped),
     or "-" where /proc does not say."""
-    try:
-        with open(f"/proc/{pid}/stat") as stat:
-            return stat.read().rsplit(")", 1)[1].split()[0]
-    except (OSError, IndexError):
-        return "-"
+    fields = _stat(pid)
+    return fields[0] if fields else "-"
 
 
 def _alive(pid: int, started: str | None = None) -> bool:

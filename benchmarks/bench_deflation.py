@@ -28,12 +28,19 @@ so κ is the largest eigenvalue. Rows ``schur<k>`` precondition with a
 better approximation of H_SS⁻¹ = B_SS − B_SO B_OO⁻¹ B_OS (B = C⁻¹, O the
 nodes outside S): B_OO⁻¹ by k terms of its Neumann series at step
 1.5/max(B) — k + 1 periodic FFT pairs per application instead of one.
-Rows ``edge<share>`` precondition with M less the edge correction of the
+Rows ``period+<margin>`` (``--parts period``): the package's preconditioner
+with C on the grid's own period (margin 0) and on a period PERIOD_MARGIN
+nodes longer (the package's, :func:`~roughcontact.operators.preconditioner.embedding_period`),
+plain and corrected, with the top mode's energy on the grid's outer FRAME
+nodes; ``--scenes full`` takes the near-full-contact scene of
+benchmarks/bench_products.py (Δ = 2.5 at 1 E*). Rows ``edge<share>``
+precondition with M less the edge correction of the
 package (:mod:`roughcontact.operators.preconditioner`, e = share · min(max(κ, 0),
 EDGE_CAP · C⁻¹_ii)) at several shares; its weights cost one periodic
 product per set.
 
     python -m benchmarks.bench_deflation [--sizes 256 512 1024 2048] [--max-vectors 120]
+        [--scenes scene full] [--parts deflation spectrum edge schur period]
         [--output results/bench_deflation.json]
 """
 from __future__ import annotations
@@ -42,6 +49,7 @@ import argparse
 
 import numpy as np
 
+from benchmarks.bench_products import PRESSURES, SHAPES
 from benchmarks.common import (
     add_launch_arguments,
     emit,
@@ -55,6 +63,10 @@ from benchmarks.common import (
 )
 
 TOL = 1e-8
+#: the row groups: deflated PCG (``none``, ``poly``, ``block``), ``spectrum``, ``edge``, ``schur``, ``period``
+PARTS = ("deflation", "spectrum", "edge", "schur", "period")
+#: the ``period`` rows' frame: nodes within this many of the grid's edges
+FRAME = 8
 #: the shares of the edge term the ``edge<share>`` rows remove (at the package's cap)
 EDGE_SHARES = (0.5, 0.7, 0.8, 0.9)
 
@@ -103,23 +115,32 @@ def worker(args) -> None:
 
     comm = MPI.COMM_WORLD
     rows: list[dict] = []
-    for n in args.sizes:
-        topography = scene_topography(n)
-        problem = scene_problem(topography, comm)
-        result = solve_scene(problem)
-        flexibility = problem.flexibility
-        contact = np.flatnonzero(result.contact[topography.footprint])
+    for scene, n in ((scene, n) for scene in args.scenes for n in args.sizes):
+        rows += scene_rows(comm, scene, n, args)
+    write_rows(comm, rows, args.json)
 
-        def apply(values):
-            full = np.zeros(problem.size)
-            full[contact] = values
-            return flexibility.product(full)[contact]
 
-        def precondition(values):
-            return flexibility.precondition_nodes(values, contact)
+def scene_rows(comm, scene: str, n: int, args) -> list[dict]:
+    rows: list[dict] = []
+    topography = scene_topography(n, **SHAPES[scene])
+    problem = scene_problem(topography, comm)
+    result = solve_scene(problem, PRESSURES[scene])
+    flexibility = problem.flexibility
+    contact = np.flatnonzero(result.contact[topography.footprint])
 
-        rhs = apply(np.abs(np.random.default_rng(0).standard_normal(contact.size)))
-        base = {"n": n, "contact_nodes": int(contact.size), "cg_fine_iterations": result.linear_iterations}
+    def apply(values):
+        full = np.zeros(problem.size)
+        full[contact] = values
+        return flexibility.product(full)[contact]
+
+    def precondition(values):
+        return flexibility.precondition_nodes(values, contact)
+
+    rhs = apply(np.abs(np.random.default_rng(0).standard_normal(contact.size)))
+    base = {"scene": scene, "n": n, "contact_nodes": int(contact.size),
+            "cg_fine_iterations": result.linear_iterations}
+    parts = set(args.parts)
+    if "deflation" in parts:
         emit(comm, rows, {**base, "space": "none", "vectors": 0, "iterations": pcg(apply, precondition, rhs)})
         blocks = [b for b in (n // 4, n // 8, n // 16, n // 32) if b >= 8]
         for name, basis in coarse_spaces(problem.nodes[contact], n, blocks).items():
@@ -129,7 +150,9 @@ def worker(args) -> None:
             inverse = np.linalg.inv(basis.T @ az)
             emit(comm, rows, {**base, "space": name, "vectors": int(basis.shape[1]),
                               "iterations": pcg(apply, precondition, rhs, (basis, az, inverse))})
+    if "spectrum" in parts:
         emit(comm, rows, {**base, "space": "spectrum", **spectrum(apply, precondition, contact, result.contact)})
+    if "edge" in parts:
         for share in EDGE_SHARES:
             edge = flexibility.preconditioner.edge_weights(contact, share=share)
 
@@ -140,13 +163,51 @@ def worker(args) -> None:
             emit(comm, rows, {**base, "space": f"edge{share:g}", "vectors": 0,
                               "iterations": pcg(apply, corrected, rhs),
                               "ritz_min": float(ritz[0]), "ritz_max": float(ritz[-1]), "periodic_pairs": 1})
+    if "schur" in parts:
         for terms in (1, 4):
             schur = schur_preconditioner(flexibility, contact, result.contact, terms)
             ritz = lanczos_ritz(apply, schur, np.random.default_rng(1).standard_normal(contact.size), 40)
-            emit(comm, rows, {**base, "space": f"schur{terms}", "vectors": 0, "iterations": pcg(apply, schur, rhs),
+            emit(comm, rows, {**base, "space": f"schur{terms}", "vectors": 0,
+                              "iterations": pcg(apply, schur, rhs),
                               "ritz_max": float(ritz[-1]), "periodic_pairs": terms + 1})
-        problem.destroy()
-    write_rows(comm, rows, args.json)
+    if "period" in parts:
+        for row in period_rows(flexibility, apply, contact, problem.nodes[contact], n, rhs):
+            emit(comm, rows, {**base, **row})
+    problem.destroy()
+    return rows
+
+
+def period_rows(flexibility, apply, contact: np.ndarray, positions: np.ndarray, n: int, rhs: np.ndarray):
+    """Rows ``period+<margin>``: the package's preconditioner with C on the grid's own period
+    (margin 0) and on its embedding period (PERIOD_MARGIN), plain and corrected: fixed-set PCG
+    iterations, extreme Ritz values, and the top mode's energy on the nodes within FRAME of the
+    grid's edges (one rank)."""
+    import roughcontact.operators.preconditioner as module
+
+    frame = np.minimum(positions, n - 1 - positions).min(axis=1) < FRAME
+    for margin in (0, module.PERIOD_MARGIN):
+        kept = module.PERIOD_MARGIN
+        module.PERIOD_MARGIN = margin
+        try:
+            pc = module.FourierPreconditioner(flexibility)
+        finally:
+            module.PERIOD_MARGIN = kept
+        for share in (0.0, module.EDGE_SHARE):
+            edge = pc.edge_weights(contact, share=share) if share else None
+
+            def preconditioned(values, pc=pc, edge=edge):
+                return pc.apply_nodes(values, contact, edge=edge)
+
+            ritz = lanczos_ritz(apply, preconditioned, np.random.default_rng(1).standard_normal(contact.size), 40)
+            x = np.random.default_rng(3).standard_normal(contact.size)
+            for _ in range(60):
+                x = preconditioned(apply(x))
+                x /= np.linalg.norm(x)
+            yield {"space": f"period+{margin}", "period": list(pc.convolution.lengths), "share": share,
+                   "vectors": 0, "iterations": pcg(apply, preconditioned, rhs), "ritz_min": float(ritz[0]),
+                   "ritz_max": float(ritz[-1]), "frame_share_of_nodes": float(frame.mean()),
+                   "top_mode_frame_energy": float(np.sum(x[frame] ** 2))}
+        pc.convolution.release_buffers()
 
 
 def lanczos_ritz(apply, precondition, rhs, steps: int) -> np.ndarray:
@@ -217,11 +278,14 @@ def main() -> None:
     parser.set_defaults(ranks=[1])
     parser.add_argument("--sizes", type=int, nargs="+", default=[256, 512, 1024, 2048])
     parser.add_argument("--max-vectors", type=int, default=120, help="skip coarse spaces larger than this")
+    parser.add_argument("--scenes", nargs="+", choices=sorted(PRESSURES), default=["scene"])
+    parser.add_argument("--parts", nargs="+", choices=PARTS, default=list(PARTS))
     args = parser.parse_args()
     if args.worker:
         return worker(args)
     rows = run_on_ranks(__spec__.name, args.ranks, ["--sizes", *map(str, args.sizes),
-                                                     "--max-vectors", str(args.max_vectors)])
+                                                     "--max-vectors", str(args.max_vectors),
+                                                     "--scenes", *args.scenes, "--parts", *args.parts])
     save_json(rows, args.output)
 
 

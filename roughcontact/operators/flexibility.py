@@ -16,7 +16,8 @@ Every solver sees H through a :class:`Flexibility`:
   matrix-free restriction (zero outside S, full convolution, read on S);
 - :meth:`Flexibility.precondition`: the Fourier preconditioner of the
   contact set, z_S = [C⁻¹ (g on S, 0 elsewhere)]_S with C the circulant of
-  the kernel wrapped on one period of the grid (:mod:`.preconditioner`).
+  the kernel folded onto a period a little longer than the grid (the grid's
+  own for the periodic operator; :mod:`.preconditioner`).
 
 A user's own Mat is accepted with :meth:`Flexibility.from_mat`; products
 then use its ``mult`` and blocks its ``createSubMatrix``.

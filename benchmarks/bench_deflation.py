@@ -182,27 +182,18 @@ def period_rows(flexibility, apply, contact: np.ndarray, positions: np.ndarray, 
     (margin 0) and on its embedding period (PERIOD_MARGIN), plain and corrected: fixed-set PCG
     iterations, extreme Ritz values, and the top mode's energy on the nodes within FRAME of the
     grid's edges (one rank)."""
-    import roughcontact.operators.preconditioner as module
+    from roughcontact.operators.preconditioner import EDGE_SHARE, PERIOD_MARGIN, FourierPreconditioner
 
     frame = np.minimum(positions, n - 1 - positions).min(axis=1) < FRAME
-    for margin in (0, module.PERIOD_MARGIN):
-        kept = module.PERIOD_MARGIN
-        module.PERIOD_MARGIN = margin
-        try:
-            pc = module.FourierPreconditioner(flexibility)
-        finally:
-            module.PERIOD_MARGIN = kept
-        for share in (0.0, module.EDGE_SHARE):
+    for margin, period in ((0, flexibility.shape), (PERIOD_MARGIN, None)):
+        pc = FourierPreconditioner(flexibility, period=period)
+        for share in (0.0, EDGE_SHARE):
             edge = pc.edge_weights(contact, share=share) if share else None
 
             def preconditioned(values, pc=pc, edge=edge):
                 return pc.apply_nodes(values, contact, edge=edge)
 
-            ritz = lanczos_ritz(apply, preconditioned, np.random.default_rng(1).standard_normal(contact.size), 40)
-            x = np.random.default_rng(3).standard_normal(contact.size)
-            for _ in range(60):
-                x = preconditioned(apply(x))
-                x /= np.linalg.norm(x)
+            ritz, x = extremes(apply, preconditioned, contact.size)
             yield {"space": f"period+{margin}", "period": list(pc.convolution.lengths), "share": share,
                    "vectors": 0, "iterations": pcg(apply, preconditioned, rhs), "ritz_min": float(ritz[0]),
                    "ritz_max": float(ritz[-1]), "frame_share_of_nodes": float(frame.mean()),
@@ -234,15 +225,21 @@ def lanczos_ritz(apply, precondition, rhs, steps: int) -> np.ndarray:
     return eigh_tridiagonal(diagonal, np.sqrt(b[:-1]) / a[:-1], eigvals_only=True)
 
 
+def extremes(apply, precondition, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """(Ritz values of M H_SS after 40 Lanczos steps, its top eigenvector by 60 power iterations)."""
+    ritz = lanczos_ritz(apply, precondition, np.random.default_rng(1).standard_normal(size), 40)
+    x = np.random.default_rng(3).standard_normal(size)
+    for _ in range(60):
+        x = precondition(apply(x))
+        x /= np.linalg.norm(x)
+    return ritz, x
+
+
 def spectrum(apply, precondition, contact: np.ndarray, in_contact: np.ndarray) -> dict:
     """Extreme Ritz values of M H_SS, and the top eigenvector's energy share on the boundary of S."""
     from scipy import ndimage
 
-    ritz = lanczos_ritz(apply, precondition, np.random.default_rng(1).standard_normal(contact.size), 40)
-    x = np.random.default_rng(3).standard_normal(contact.size)
-    for _ in range(60):
-        x = precondition(apply(x))
-        x /= np.linalg.norm(x)
+    ritz, x = extremes(apply, precondition, contact.size)
     neighbours = ndimage.convolve(in_contact.astype(np.int8), np.array([[0, 1, 0], [1, 0, 1], [0, 1, 0]], np.int8),
                                   mode="constant")
     boundary = (neighbours < 4)[in_contact]

@@ -19,12 +19,20 @@ from roughcontact.errors import InputError
 from roughcontact.materials import Interface, Material
 from roughcontact.normal.constrained_cg import CGSettings
 from roughcontact.operators.flexibility import Flexibility
-from roughcontact.operators.preconditioner import EDGE_CAP, EDGE_SHARE, embedding_period, wrapped_kernel
+from roughcontact.operators.kernel import punch_kernel
+from roughcontact.operators.preconditioner import EDGE_CAP, EDGE_SHARE, embedding_period
 from roughcontact.surfaces import Topography, disc
 
 ROCK = Interface(Material(20e9, 0.2), Material(20e9, 0.2))
 SPACING = 1e-4
 N = 24
+
+
+def wrapped_kernel(period: tuple[int, int], spacing: float, compliance: float) -> np.ndarray:
+    """The Eq. 10 table on a grid of the period's size, folded onto it: k[min(i, L − i), min(j, L − j)]."""
+    table = punch_kernel(period, spacing, compliance)
+    i, j = np.arange(period[0]), np.arange(period[1])
+    return table[np.ix_(np.minimum(i, period[0] - i), np.minimum(j, period[1] - j))]
 
 
 def inverse_column(flexibility) -> np.ndarray:

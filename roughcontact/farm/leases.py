@@ -145,15 +145,12 @@ def _stat(pid: int) -> list[str] | None:
 def start_time(pid: int) -> str:
     """When process ``pid`` started (clock ticks since boot, /proc/<pid>/stat field 22), or "-"
     where /proc does not say (then only the pid identifies the process)."""
-    fields = _stat(pid)
+    return _started(_stat(pid))
+
+
+def _started(fields: list[str] | None) -> str:
+    """The start time among the fields of :func:`_stat`, or "-"."""
     return fields[19] if fields is not None and len(fields) > 19 else "-"
-
-
-def _state(pid: int) -> str:
-    """Process ``pid``'s state letter (/proc/<pid>/stat field 3: "Z" exited and not yet reaped),
-    or "-" where /proc does not say."""
-    fields = _stat(pid)
-    return fields[0] if fields else "-"
 
 
 def _alive(pid: int, started: str | None = None) -> bool:
@@ -165,11 +162,12 @@ def _alive(pid: int, started: str | None = None) -> bool:
         return False
     except PermissionError:
         pass
-    if _state(pid) in ("Z", "X"):
+    fields = _stat(pid)                        # one read of /proc for the state and the start
+    if fields and fields[0] in ("Z", "X"):      # exited, not yet reaped
         return False
     if started is None or started == "-":
         return True
-    now = start_time(pid)
+    now = _started(fields)
     return now == "-" or now == started
 
 

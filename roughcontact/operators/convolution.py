@@ -125,7 +125,8 @@ class SlabConvolution:
         padded points per rank (threads cost more than they save on small
         transforms), else :func:`default_workers`.
 
-    The symbol is set with :meth:`set_kernel` (an even kernel table) or
+    The symbol is set with :meth:`set_kernel` (an even kernel table),
+    :meth:`set_folded_kernel` (a table by |offset| folded onto a period) or
     :meth:`set_symbol` (its Fourier transform, computed elsewhere).
     """
 
@@ -140,8 +141,6 @@ class SlabConvolution:
                                           for n, length in zip(self.shape, self.lengths)):
             raise ValueError(f"period {self.lengths} of the grid {self.shape}: each length must lie "
                              "between n and 2n − 1")
-        # a period longer than the grid: the kernel is folded onto it from the table by |offset|
-        self.embedded = self.periodic and self.lengths != self.shape
         if workers is None:
             points = self.lengths[0] * self.lengths[1] // self.size
             workers = default_workers(comm) if points >= THREADED_POINTS else 1
@@ -175,36 +174,52 @@ class SlabConvolution:
         grid, zero at offsets beyond ±(n − 1), transformed. Periodic: the
         table must already be the periodic kernel on one period, indexed by
         offset modulo n (use :meth:`set_symbol` for symbols computed in
-        Fourier space). Periodic with a period L longer than the grid: the
-        table by |offset|, as for the half-space, folded onto the period
-        (offset d takes the table's value at min(d, L − d) ≤ n − 1).
+        Fourier space, :meth:`set_folded_kernel` for a period longer than
+        the grid).
         """
         nx, ny = self.shape
         lx, ly = self.lengths
+        if self.periodic and self.lengths != self.shape:
+            raise ValueError(f"a period {self.lengths} longer than the grid {self.shape} takes "
+                             "set_folded_kernel")
+        kernel = self._table_rows(kernel)
+        rows = np.zeros((kernel.shape[0], ly))
+        rows[:, :ny] = kernel
+        if not self.periodic:
+            rows[:, ly - ny + 1:] = kernel[:, :0:-1]                # negative y offsets
+        columns = self._to_columns(sfft.rfft(rows, axis=1, workers=self.workers))   # (nx, my columns)
+        full = np.zeros((lx, columns.shape[1]), dtype=complex)
+        full[:nx] = columns
+        if not self.periodic:
+            full[lx - nx + 1:] = columns[:0:-1]                     # negative x offsets
+        self._set_transformed(full)
+
+    def set_folded_kernel(self, kernel: np.ndarray) -> None:
+        """Periodic: the symbol of the even kernel given by |offset| (kernel[|Δi|, |Δj|], the whole
+        table or this rank's rows, as :meth:`set_kernel`) folded onto the period: offset d takes
+        the table's value at min(d, L − d), which is at most n − 1 for L ≤ 2n − 1 (the nearest
+        image, on the grid's own period or a longer one)."""
+        if not self.periodic:
+            raise ValueError("a folded kernel needs a periodic convolution")
+        lx, ly = self.lengths
+        kernel = self._table_rows(kernel)
+        columns = self._to_columns(sfft.rfft(kernel[:, _folded(ly)], axis=1, workers=self.workers))
+        self._set_transformed(columns[_folded(lx)])
+
+    def _table_rows(self, kernel: np.ndarray) -> np.ndarray:
+        """This rank's rows of a kernel table given whole or by this rank's rows."""
         kernel = np.asarray(kernel, dtype=float)
         r0, r1 = self.rows
         if kernel.shape == self.shape:
-            kernel = kernel[r0:r1]
-        elif kernel.shape != (r1 - r0, ny):
+            return kernel[r0:r1]
+        if kernel.shape != (r1 - r0, self.shape[1]):
             raise ValueError(f"kernel table has shape {kernel.shape}: neither the grid {self.shape} "
-                             f"nor this rank's rows {(r1 - r0, ny)}")
-        if self.embedded:
-            rows = kernel[:, _folded(ly)]
-        else:
-            rows = np.zeros((r1 - r0, ly))
-            rows[:, :ny] = kernel
-            if not self.periodic:
-                rows[:, ly - ny + 1:] = kernel[:, :0:-1]            # negative y offsets
-        spectra = sfft.rfft(rows, axis=1, workers=self.workers)
-        columns = self._to_columns(spectra)                         # (nx, my columns)
-        if self.embedded:
-            full = columns[_folded(lx)]
-        else:
-            full = np.zeros((lx, columns.shape[1]), dtype=complex)
-            full[:nx] = columns
-            if not self.periodic:
-                full[lx - nx + 1:] = columns[:0:-1]                 # negative x offsets
-        self.symbol = np.ascontiguousarray(sfft.fft(full, axis=0, workers=self.workers).real)
+                             f"nor this rank's rows {(r1 - r0, self.shape[1])}")
+        return kernel
+
+    def _set_transformed(self, columns: np.ndarray) -> None:
+        """The symbol from the kernel transformed along y, all Lx rows of this rank's columns."""
+        self.symbol = np.ascontiguousarray(sfft.fft(columns, axis=0, workers=self.workers).real)
         self._single_symbol = None
 
     def set_symbol(self, symbol_columns: np.ndarray) -> None:

@@ -441,7 +441,7 @@ def test_the_edge_correction_is_dropped_where_the_set_cycles(comm, monkeypatch):
     weights = ConstrainedCGSolver._edge_weights
 
     def recorded(*args):
-        asked.append(args[-1])                         # correcting
+        asked.append(args[5])                          # correcting (after self, edges, nodes, members, single)
         return weights(*args)
 
     monkeypatch.setattr(ConstrainedCGSolver, "_edge_weights", recorded)

@@ -263,6 +263,7 @@ class EdgeWeights:
         over this rank's nodes (the same set); collective."""
         pc = self.pc
         if pc.window is None:                    # a grid the window would wrap round: the product
+            self.products += 1
             return pc.edge_weights(nodes, single, self.share)
         trackable = self.sums is not None and self.updates < EDGE_REFRESH
         if trackable:

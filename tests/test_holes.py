@@ -1,0 +1,119 @@
+"""The holes of a contact set (components of its outside that touch no edge of the grid) and the
+edge charge the preconditioner takes back on them (roughcontact/operators/holes.py)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from roughcontact.errors import InputError
+from roughcontact.materials import Interface, Material
+from roughcontact.normal.constrained_cg import CGSettings
+from roughcontact.operators.flexibility import Flexibility
+from roughcontact.operators.holes import HoleCharge, enclosed
+from roughcontact.surfaces import Topography
+from roughcontact.surfaces.rows import split
+
+ROCK = Interface(Material(20e9, 0.2), Material(20e9, 0.2))
+SPACING = 1e-4
+
+#: '#' in the set, '.' outside: a hole of 2 × 2 (rows 1-2), a notch open to the left edge (row 4),
+#: a hole three rows tall (rows 6-8), a channel open to the bottom edge (rows 9-11, column 6), a
+#: hole of two nodes that touches it only diagonally (rows 7-8, column 7: 4-neighbours keep it a
+#: hole) and a hole of one node (row 10). The random sets below cross the slab boundaries
+PICTURE = """
+##########
+##..######
+##..######
+##########
+...#######
+##########
+####.#####
+####.##.##
+####.##.##
+######.###
+####.#.###
+######.###
+"""
+EXPECTED_HOLES = {(1, 2), (1, 3), (2, 2), (2, 3), (6, 4), (7, 4), (8, 4), (7, 7), (8, 7), (10, 4)}
+
+
+def test_holes_are_the_outside_components_that_touch_no_edge_on_any_rank_count(comm):
+    """The labelling by slabs, merged over the ranks, gives the holes of the picture (by hand)."""
+    rows = [line for line in PICTURE.strip().splitlines()]
+    outside = np.array([[c == "." for c in line] for line in rows])
+    r0, r1 = split(outside.shape[0], comm.Get_size())[comm.Get_rank()]
+    holes = enclosed(outside[r0:r1], comm, r0, outside.shape[0])
+    expected = np.zeros_like(outside)
+    for node in EXPECTED_HOLES:
+        expected[node] = True
+    np.testing.assert_array_equal(holes, expected[r0:r1])
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_holes_of_a_random_set_match_a_whole_grid_labelling(comm, seed):
+    """On a random near-full set of 37 × 29 (many components, some across every slab boundary)
+    the merged labelling equals scipy's on the whole grid, edge-touching components removed."""
+    outside = np.random.default_rng(seed).random((37, 29)) < 0.45
+    labels, _ = ndimage.label(outside)
+    open_labels = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
+    expected = outside & ~np.isin(labels, open_labels)
+    r0, r1 = split(outside.shape[0], comm.Get_size())[comm.Get_rank()]
+    np.testing.assert_array_equal(enclosed(outside[r0:r1], comm, r0, outside.shape[0]), expected[r0:r1])
+    assert comm.allreduce(int(expected[r0:r1].sum())) > 0
+
+
+def dense_of(apply, size: int) -> np.ndarray:
+    """The matrix of a linear map on R^size, column by column."""
+    return np.column_stack([apply(unit) for unit in np.eye(size)])
+
+
+@pytest.mark.parametrize("density", [0.6, 0.9])
+def test_the_hole_charge_keeps_the_preconditioner_positive_definite(density):
+    """M' = M − Σ_b γ_b r_b r_bᵀ / (1ᵀ r_b) on a random set of 24² with blocks of 8: symmetric;
+    bounded below by M − diag(r) (Cauchy–Schwarz, the module's argument) and positive definite;
+    and the block-constant field loses exactly γ_b 1ᵀ r_b. Tolerances: round-off of dense sums of
+    ~600 terms (1e-12 relative to C⁻¹'s diagonal)."""
+    from mpi4py import MPI
+
+    n = 24
+    flex = Flexibility(Topography(np.zeros((n, n)), SPACING), ROCK, MPI.COMM_SELF, kind="fft")
+    try:
+        pc = flex.preconditioner
+        members = np.random.default_rng(3).random(n * n) < density
+        nodes = np.flatnonzero(members)
+        edge = pc.edge_weights(nodes)
+        holes = HoleCharge(flex.layout, MPI.COMM_SELF, share=0.8, block=8)
+        holes.relabel(members)
+        holes.update(nodes, edge)
+        assert holes.active and holes.in_holes.max() > 0.0
+
+        def corrected(g):
+            z = flex.precondition_nodes(g, nodes, edge=edge)
+            holes.subtract(g, z)
+            return z
+
+        plain = dense_of(lambda g: flex.precondition_nodes(g, nodes, edge=edge), nodes.size)
+        taken = dense_of(corrected, nodes.size)
+        scale = pc.inverse_diagonal
+        assert np.abs(taken - taken.T).max() <= 1e-12 * scale
+        charge = edge * 0.25                                        # r = e (1 − 0.8) / 0.8
+        floor = np.linalg.eigvalsh(0.5 * (plain + plain.T) - np.diag(charge))[0]
+        lowest = np.linalg.eigvalsh(0.5 * (taken + taken.T))[0]
+        assert lowest >= floor - 1e-12 * scale
+        assert lowest > 0.0
+        rows, columns = np.divmod(nodes, n)
+        blocks = (rows // 8) * 3 + columns // 8
+        for b in range(9):
+            field = (blocks == b).astype(float)
+            lost = field @ (plain - taken) @ field
+            assert abs(lost - holes.in_holes[b] * charge[blocks == b].sum()) <= 1e-12 * scale * field.sum()
+    finally:
+        flex.destroy()
+
+
+def test_hole_block_is_checked():
+    with pytest.raises(InputError, match="hole_block"):
+        CGSettings(hole_block=-1)
+    with pytest.raises(InputError, match="hole_block"):
+        CGSettings(hole_block=2.5)

@@ -59,7 +59,7 @@ from scipy.linalg.blas import daxpy
 
 from ..errors import ConvergenceError, InputError
 from ..operators.holes import HOLE_BLOCK, HoleCharge
-from ..operators.preconditioner import EDGE_SHARE, EdgeWeights
+from ..operators.preconditioner import EDGE_SHARE, EDGE_UPDATES, EdgeWeights
 from .nested import COARSE_TOL, NestedStart
 from .problem import NormalProblem
 from .result import ContactState
@@ -79,10 +79,6 @@ DEFER_NODES = 1024
 #: and waiting saved nothing measurable, while on sparse contacts it cost iterations (128², Δ = 2.5,
 #: 1e-3 E*, 0.3 % in contact: 31 against 12; 1e-4 E*: 16 against 7)
 DEFER_FROM = 512 * 512
-
-
-#: the residual below which the preconditioner takes back the hole charge
-HOLE_FROM = 1e-3
 
 
 @dataclass(frozen=True)
@@ -157,14 +153,16 @@ class CGSettings:
     hole_block
         The side (nodes) of the blocks on which the preconditioner takes back
         the edge charge left on the rims of holes, the parts of the outside of
-        the free set enclosed by it (:mod:`~roughcontact.operators.holes`); 0:
-        not taken back. The holes are labelled again whenever the edge weights
-        take a product. Taken once the residual reaches HOLE_FROM (1e-3): from
-        the first iteration the set wandered (near full contact at 1024², 61
-        fine iterations against 36). Whole solves near full contact (Δ = 2.5,
-        1 E*), 0 → 64: 256² 20 → 18, 512² 26 → 21, 1024² 36 → 28, 2048² 53
-        → 41; the large-grid scene 14 / 17 / 24 → 14 / 17 / 23 at 256² /
-        1024² / 2048²; the stability map 2170 → 2094, 120 / 120.
+        the free set that touch no edge of the grid
+        (:mod:`~roughcontact.operators.holes`); 0: not taken back. Taken on
+        the iterations whose free set changes by at most one node in
+        EDGE_UPDATES, the directions restarting where it starts or stops:
+        taken while the set moved, near full contact at 1024² wandered (61
+        fine iterations against 36). The holes and rims are found again
+        whenever the edge weights take a product. Whole solves near full
+        contact (Δ = 2.5, 1 E*), 0 → 64: 256² 20 → 18, 512² 26 → 23, 1024²
+        36 → 32, 2048² 53 → 44; the large-grid scene 24 → 23 at 2048², 32 →
+        31 at 4096²; the stability map 2170 → 2108, 120 / 120.
     defer
         The far fields of the forces a cut restores wait (only their near
         field, 32 nodes around each, is added to H p at once) while
@@ -399,7 +397,7 @@ class ConstrainedCGSolver(NormalSolver):
         # the edge charge the holes of the free set let the preconditioner take back (None: none)
         holes = (HoleCharge(pb.flexibility.layout, pb.comm, settings.edge_share, settings.hole_block)
                  if self._corrected and settings.hole_block else None)
-        taking = False                                 # whether the residual reached HOLE_FROM
+        taking = False                                 # whether the hole charge is taken now
         correcting = self._corrected                   # the edge correction in use (dropped where it stalls)
         history: list[float] = []
         since_refresh = 0
@@ -464,8 +462,10 @@ class ConstrainedCGSolver(NormalSolver):
                 previous = None                        # the renewal (``CGSettings.renew``)
             if previous is None:
                 since_restart = 0
-            if holes is not None and not taking and residual <= HOLE_FROM:
-                taking, stale = True, True             # the hole charge from here (HOLE_FROM)
+            if holes is not None and (counts[0] <= pb.size // EDGE_UPDATES) != taking:
+                # the hole charge while the set changes by one node in EDGE_UPDATES or fewer
+                # (``CGSettings.hole_block``); the directions restart where M changes
+                taking, stale, previous, since_restart = not taking, True, None, 0
             if stale or counts[0] > 0:
                 # the weights of the set as it is now: kept from the last restart while the set
                 # moved, they let the residual wander between 1e-4 and 7e-4 for 30 iterations at

@@ -17,31 +17,42 @@ the open sea, and the same field pays for it (the island is a punch).
 
 A hole here is a component of the outside (4-neighbours) that does not
 touch the grid's frame: beyond the frame a bounded grid is free surface, so a
-component that reaches it is open (:func:`enclosed`). On blocks of HOLE_BLOCK
-× HOLE_BLOCK nodes the preconditioner takes back, for the field constant on
-the block's nodes of S, the charge left there, in the share γ_b of the
-block's outside nodes that lie in holes:
+component that reaches it is open (:func:`enclosed`). The rims of the holes
+are the nodes of S within RIM of a hole and not within RIM of the open
+outside or of the frame, and r^h is r on the rims, 0 elsewhere. On blocks of
+HOLE_BLOCK × HOLE_BLOCK nodes the preconditioner takes back, for the field
+constant on the block's nodes of S, the charge left on the rims:
 
-    M' = M − Σ_b γ_b r_b r_bᵀ / (1ᵀ r_b),     r_b = r on the block's nodes of S.
+    M' = M − Σ_b r^h_b r^h_bᵀ / (1ᵀ r^h_b).
 
-Each term is a rank-one matrix; by Cauchy–Schwarz (r_bᵀ u)² ≤ (1ᵀ r_b)
-Σ r_i u_i², so uᵀ M' u ≥ uᵀ (M − diag(r)) u, the full-share preconditioner
+Each term is a rank-one matrix; by Cauchy–Schwarz (r^h_bᵀ u)² ≤ (1ᵀ r^h_b)
+Σ r^h_i u_i², so uᵀ M' u ≥ uᵀ (M − diag(r)) u, the full-share preconditioner
 capped at EDGE_CAP, which stays positive definite wherever the difference
-part is (:mod:`.preconditioner`). A node alone in a block loses all of r
-(the block's constant field is then the node), but a block holds such a node
-only where it holds holes. One application costs a sum of r ∘ g per block
-and one reduction of the block sums over the ranks.
+part is (:mod:`.preconditioner`). One application costs a sum of r^h ∘ g per
+block and one reduction of the block sums over the ranks; the rims cost a
+labelling of the outside and two square filters of the slab, made again when
+the edge weights take a product.
 
 Measured on the solved sets (fixed-set PCG to 1e-8, Ritz range after 60
-Lanczos steps): near full contact at 512² / 1024² / 2048², 19 / 23 / 30
-iterations (0.46–6.45, 0.44–11.6, 0.45–23.0) → 14 / 15 / 16 (0.38–1.32,
-0.30–1.42, 0.32–1.92); on the large-grid scene (0.01 E*, islands in an open
-sea) 12 / 15 / 18 → 12 / 15 / 18. Blocks of 32 took 15 / 17 / 18 near full
-contact, of 128 16 / 17 / 17. One block over the whole grid took back 6.45 →
-3.22 at 512²: the field that pays too much is constant on patches of holes,
-not over the grid. γ_b = 1 on every block took the scene's smallest Ritz
-value from 0.40 to 0.07 (26 iterations against 12): its islands were charged
-like holes.
+Lanczos steps; near full contact at 512² / 1024² / 2048² 19 / 23 / 30
+iterations (0.46–6.45, 0.44–11.6, 0.45–23.0) before; the large-grid scene
+(0.01 E*, islands in an open sea) 12 / 15 / 18 / 24 at 512² to 4096²):
+
+- the rims with RIM = 1: near full contact 16 at 1024² (0.36–3.93); the
+  scene 22 at 4096² (0.39–5.07); RIM = 2: 16 (0.31–2.82) and 24 (0.34–4.89);
+- every node of a block, in the share γ_b of the block's outside that lies
+  in holes: near full contact 14 / 15 / 16 (0.38–1.32, 0.30–1.42,
+  0.32–1.92), but the scene 28 at 4096² (0.28–5.29): at that resolution
+  17 blocks of islands hold holes, and the charge of their sea edges was
+  taken back with the holes'; with γ_b = 1 on every block the scene's
+  smallest Ritz value fell from 0.40 to 0.07 at 512² (26 against 12);
+- every node not within RIM of the open outside: near full contact 15
+  (0.30–1.35) at 1024², the scene 20 at 2048² (0.26–2.46): the interiors of
+  islands;
+- blocks of 32 or 128 took 1–2 more iterations than 64; one block over the
+  grid took the top near full contact at 512² from 6.45 to 3.22 only: the
+  field that pays too much is constant on patches of holes, not over the
+  grid.
 """
 from __future__ import annotations
 
@@ -52,6 +63,8 @@ from scipy.sparse.csgraph import connected_components
 
 #: the side of the blocks on which the hole charge is taken back (nodes)
 HOLE_BLOCK = 64
+#: the rims of holes: the nodes within this many (a square) of a hole and not of the open outside
+RIM = 1
 
 
 def enclosed(outside: np.ndarray, comm, first_row: int, rows_total: int) -> np.ndarray:
@@ -95,8 +108,9 @@ def enclosed(outside: np.ndarray, comm, first_row: int, rows_total: int) -> np.n
 
 
 class HoleCharge:
-    """M' = M − Σ_b γ_b r_b r_bᵀ / (1ᵀ r_b) on a free set that changes from one call to the next
-    (module docstring); the layout of a :class:`~.flexibility.Flexibility`."""
+    """M' = M − Σ_b r_b r_bᵀ / (1ᵀ r_b), r the charge left on the rims of holes, on a free set that
+    changes from one call to the next (module docstring); the layout of a
+    :class:`~.flexibility.Flexibility`."""
 
     def __init__(self, layout, comm, share: float, block: int = HOLE_BLOCK):
         self.layout, self.comm = layout, comm
@@ -104,32 +118,26 @@ class HoleCharge:
         self.block = block
         nx, ny = layout.shape
         self.grid = (-(-nx // block), -(-ny // block))  # blocks per direction
-        self.in_holes = np.zeros(self.grid[0] * self.grid[1])   # γ_b
+        self.rim = np.zeros(0, dtype=bool)              # the rims of holes, over this rank's slab
         self.blocks = np.zeros(0, dtype=np.int32)       # the block of each node of S
-        self.scale = np.zeros(0)                        # r_i · γ_b / (1ᵀ r_b) on S
-        self.charge = np.zeros(0)                       # r on S
+        self.scale = np.zeros(0)                        # r_i / (1ᵀ r_b) on S
+        self.charge = np.zeros(0)                       # r on S (0 off the rims)
         self.active = False                             # whether any block takes charge back
-        self.labelled = False                           # whether γ_b has been made
+        self.labelled = False                           # whether the rims have been found
 
     def relabel(self, members: np.ndarray) -> None:
-        """γ_b from the free set as the mask ``members`` over this rank's nodes: the share of each
-        block's nodes outside the set that lie in holes; collective."""
+        """The rims of the holes of the free set given as the mask ``members`` over this rank's
+        nodes: the nodes within RIM of a hole and not within RIM of the open outside or of the
+        grid's frame (beyond it the outside is open); collective."""
         nx, ny = self.layout.shape
         r0, r1 = self.layout.rows
         outside = np.ones((r1 - r0) * ny, dtype=bool)
         outside[self.layout.positions[members]] = False
         outside = outside.reshape(r1 - r0, ny)
         holes = enclosed(outside, self.comm, r0, nx)
-        counts = np.zeros((2, self.grid[0], self.grid[1]))
-        if r1 > r0:
-            band = np.arange(r0, r1) // self.block
-            starts = np.arange(0, ny, self.block)
-            for k, field in enumerate((outside, holes)):
-                by_columns = np.add.reduceat(field.astype(np.float64), starts, axis=1)
-                np.add.at(counts[k], band, by_columns)
-        counts = self.comm.allreduce(counts)
-        self.in_holes = np.divide(counts[1], counts[0], out=np.zeros_like(counts[0]),
-                                  where=counts[0] > 0).reshape(-1)
+        near_hole = _near(holes, self.comm, r0, beyond=False)
+        near_open = _near(outside & ~holes, self.comm, r0, beyond=True)
+        self.rim = (near_hole & ~near_open).reshape(-1)
         self.labelled = True
 
     def update(self, nodes: np.ndarray, edge: np.ndarray) -> None:
@@ -140,17 +148,37 @@ class HoleCharge:
         rows = positions // ny + self.layout.rows[0]
         self.blocks = ((rows // self.block) * self.grid[1] + (positions % ny) // self.block).astype(np.int32)
         self.charge = edge * self.factor
-        totals = self.comm.allreduce(np.bincount(self.blocks, weights=self.charge, minlength=self.in_holes.size))
-        per_block = np.divide(self.in_holes, totals, out=np.zeros_like(totals), where=totals > 0)
-        self.scale = self.charge * per_block[self.blocks]
-        self.active = bool(self.comm.allreduce(bool(np.any(per_block > 0)), op=_lor()))
+        self.charge[~self.rim[positions]] = 0.0
+        totals = self.comm.allreduce(np.bincount(self.blocks, weights=self.charge,
+                                                 minlength=self.grid[0] * self.grid[1]))
+        inverse = np.divide(1.0, totals, out=np.zeros_like(totals), where=totals > 0)
+        self.scale = self.charge * inverse[self.blocks]
+        self.active = bool(np.any(totals > 0))
 
     def subtract(self, g: np.ndarray, z: np.ndarray) -> None:
-        """z −= Σ_b γ_b r_b (r_bᵀ g) / (1ᵀ r_b) on the free set of the last :meth:`update`; collective."""
+        """z −= Σ_b r_b (r_bᵀ g) / (1ᵀ r_b) on the free set of the last :meth:`update`; collective."""
         if not self.active:
             return
-        sums = self.comm.allreduce(np.bincount(self.blocks, weights=self.charge * g, minlength=self.in_holes.size))
+        sums = self.comm.allreduce(np.bincount(self.blocks, weights=self.charge * g,
+                                               minlength=self.grid[0] * self.grid[1]))
         z -= self.scale * sums[self.blocks]
+
+
+def _near(field: np.ndarray, comm, first_row: int, beyond: bool) -> np.ndarray:
+    """The nodes of this rank's (rows, ny) slab within RIM nodes (a square) of a True node of
+    ``field`` over all ranks; ``beyond``: the nodes past the grid's edges count as True;
+    collective (each rank's first and last RIM rows are gathered)."""
+    rows, ny = field.shape
+    kept = sorted({*range(min(RIM, rows)), *range(max(rows - RIM, 0), rows)})      # local rows
+    edges = [(first_row + row, field[row]) for row in kept]
+    window = np.full((rows + 2 * RIM, ny + 2 * RIM), beyond)
+    for part in comm.allgather(edges):
+        for row, values in part:
+            if first_row - RIM <= row < first_row + rows + RIM:
+                window[row - first_row + RIM, RIM:RIM + ny] = values
+    window[RIM:RIM + rows, RIM:RIM + ny] = field       # rows and columns past the grid keep ``beyond``
+    grown = ndimage.maximum_filter(window, size=2 * RIM + 1, mode="constant", cval=beyond)
+    return grown[RIM:RIM + rows, RIM:RIM + ny]
 
 
 def _lor():

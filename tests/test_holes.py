@@ -50,14 +50,20 @@ def test_holes_are_the_outside_components_that_touch_no_edge_on_any_rank_count(c
     np.testing.assert_array_equal(holes, expected[r0:r1])
 
 
+def whole_grid_holes(outside: np.ndarray) -> np.ndarray:
+    """The holes of an outside given on the whole grid, by scipy's labelling of the whole grid:
+    its components (4-neighbours) that touch no edge."""
+    labels, _ = ndimage.label(outside)
+    open_labels = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
+    return outside & ~np.isin(labels, open_labels)
+
+
 @pytest.mark.parametrize("seed", [1, 2])
 def test_holes_of_a_random_set_match_a_whole_grid_labelling(comm, seed):
     """On a random near-full set of 37 × 29 (many components, some across every slab boundary)
     the merged labelling equals scipy's on the whole grid, edge-touching components removed."""
     outside = np.random.default_rng(seed).random((37, 29)) < 0.45
-    labels, _ = ndimage.label(outside)
-    open_labels = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
-    expected = outside & ~np.isin(labels, open_labels)
+    expected = whole_grid_holes(outside)
     r0, r1 = split(outside.shape[0], comm.Get_size())[comm.Get_rank()]
     np.testing.assert_array_equal(enclosed(outside[r0:r1], comm, r0, outside.shape[0]), expected[r0:r1])
     assert comm.allreduce(int(expected[r0:r1].sum())) > 0
@@ -72,9 +78,7 @@ def whole_grid_rims(inside: np.ndarray) -> np.ndarray:
     """The rims of the holes of a set given on the whole grid, by scipy on the whole grid: within
     one node (a square) of a hole and not of the open outside or of the frame."""
     outside = ~inside
-    labels, _ = ndimage.label(outside)
-    open_labels = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
-    holes = outside & ~np.isin(labels, open_labels)
+    holes = whole_grid_holes(outside)
     framed = np.pad(outside & ~holes, 1, constant_values=True)
     near_open = ndimage.binary_dilation(framed, np.ones((3, 3), bool))[1:-1, 1:-1]
     return ndimage.binary_dilation(holes, np.ones((3, 3), bool)) & ~near_open

@@ -466,18 +466,18 @@ class ConstrainedCGSolver(NormalSolver):
                 # the hole charge while the set changes by one node in EDGE_UPDATES or fewer
                 # (``CGSettings.hole_block``); the directions restart where M changes
                 taking, stale, previous, since_restart = not taking, True, None, 0
+            charge = holes if taking else None         # the hole charge of this iteration (None: none)
             if stale or counts[0] > 0:
                 # the weights of the set as it is now: kept from the last restart while the set
                 # moved, they let the residual wander between 1e-4 and 7e-4 for 30 iterations at
                 # 4096² (61 fine iterations against 42)
-                edge, stale = self._edge_weights(edges, working, free_mask, single, correcting,
-                                                 holes if taking else None), False
+                edge, stale = self._edge_weights(edges, working, free_mask, single, correcting, charge), False
             g = lifted[working]
             g -= approach
             if pending is not None:                    # what the deferred far fields may reach
                 square, size = pb.allsum(np.array([g @ g, g.size]))
                 allowed = settings.defer * float(np.sqrt(square / size)) if size else 0.0
-            z, gz = self._direction(g, working, single, edge, load is not None, holes if taking else None)
+            z, gz = self._direction(g, working, single, edge, load is not None, charge)
             if not gz > 0.0 and correcting:
                 # the corrected preconditioner is positive definite only as far as C⁻¹'s positive
                 # far entries allow; the plain one always is (never seen to fire in a solve). The

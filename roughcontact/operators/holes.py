@@ -118,6 +118,7 @@ class HoleCharge:
         self.block = block
         nx, ny = layout.shape
         self.grid = (-(-nx // block), -(-ny // block))  # blocks per direction
+        self.count = self.grid[0] * self.grid[1]        # blocks
         self.rim = np.zeros(0, dtype=bool)              # the rims of holes, over this rank's slab
         self.blocks = np.zeros(0, dtype=np.int32)       # the block of each node of S
         self.scale = np.zeros(0)                        # r_i / (1ᵀ r_b) on S
@@ -149,8 +150,7 @@ class HoleCharge:
         self.blocks = ((rows // self.block) * self.grid[1] + (positions % ny) // self.block).astype(np.int32)
         self.charge = edge * self.factor
         self.charge[~self.rim[positions]] = 0.0
-        totals = self.comm.allreduce(np.bincount(self.blocks, weights=self.charge,
-                                                 minlength=self.grid[0] * self.grid[1]))
+        totals = self.comm.allreduce(np.bincount(self.blocks, weights=self.charge, minlength=self.count))
         inverse = np.divide(1.0, totals, out=np.zeros_like(totals), where=totals > 0)
         self.scale = self.charge * inverse[self.blocks]
         self.active = bool(np.any(totals > 0))
@@ -159,8 +159,7 @@ class HoleCharge:
         """z −= Σ_b r_b (r_bᵀ g) / (1ᵀ r_b) on the free set of the last :meth:`update`; collective."""
         if not self.active:
             return
-        sums = self.comm.allreduce(np.bincount(self.blocks, weights=self.charge * g,
-                                               minlength=self.grid[0] * self.grid[1]))
+        sums = self.comm.allreduce(np.bincount(self.blocks, weights=self.charge * g, minlength=self.count))
         z -= self.scale * sums[self.blocks]
 
 
@@ -180,8 +179,3 @@ def _near(field: np.ndarray, comm, first_row: int, beyond: bool) -> np.ndarray:
     grown = ndimage.maximum_filter(window, size=2 * RIM + 1, mode="constant", cval=beyond)
     return grown[RIM:RIM + rows, RIM:RIM + ny]
 
-
-def _lor():
-    from mpi4py import MPI
-
-    return MPI.LOR

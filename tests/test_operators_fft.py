@@ -114,6 +114,33 @@ def test_product_of_a_sparse_field_equals_the_product_of_the_whole_field(comm, k
 
 
 @pytest.mark.parametrize("kind", ["fft", "fft-periodic"])
+def test_the_restricted_product_is_the_whole_product_at_the_nodes(comm, kind):
+    """restricted (R_S K R_Sᵀ, read off the product before its crop) equals the whole field's
+    product at the nodes bit for bit (rtol 0, atol 0), and product_at the whole product, for
+    fields on both sides of convolution.DENSE_WRITE (more than one node in 8 is scattered
+    through the columns buffer and read back through it, fewer at padded indices), one after
+    the other in both orders, in single and double precision: either way the same padded field
+    is transformed, and the dense write must leave no value of the last one behind."""
+    from roughcontact.operators import convolution
+
+    fft = Flexibility(topography(48, "square"), ROCK, comm, kind=kind)
+    conv, layout = fft.convolution, fft.layout
+    rng = np.random.default_rng(5)
+    for single in (False, True):
+        for density in (0.9, 0.02, 0.5, 1.0 / convolution.DENSE_WRITE + 0.03,
+                        1.0 / convolution.DENSE_WRITE - 0.03, 0.0, 1.0, 0.3):
+            nodes = np.flatnonzero(rng.random(layout.local_size) < density)
+            values = rng.standard_normal(nodes.size)
+            whole = np.zeros(layout.local_size)
+            whole[nodes] = values
+            expected = fft.product(whole, single)
+            np.testing.assert_array_equal(fft.product_at(values, nodes, single), expected)
+            read = conv.restricted(values, layout.positions[nodes], single)
+            np.testing.assert_array_equal(read, expected[nodes].astype(read.dtype))
+    fft.destroy()
+
+
+@pytest.mark.parametrize("kind", ["fft", "fft-periodic"])
 def test_a_transform_of_occupied_rows_only_equals_the_whole_one(comm, kind, monkeypatch):
     """product_at transforms along y only the runs of rows that hold values where that skips
     enough points (convolution.RUN_POINTS); forced on every sparse field (RUN_POINTS = 0) and

@@ -77,6 +77,11 @@ THREADED_POINTS = 512 * 512
 #: rows: one occupied row in two 343 against 300 ms, one in four 308 against 296 ms, one run of
 #: half the rows 276 against 290 ms
 RUN_POINTS = 40000
+#: a field given at more than one node in this many of the slab is written dense
+#: (:meth:`SlabConvolution.apply_at`): scattered into a zeroed flat slab and copied into the
+#: padded rows, instead of scattered there at padded indices, whose integer division and
+#: modulo cost more than the scatter itself
+DENSE_WRITE = 8
 
 
 def default_workers(comm) -> int:
@@ -247,37 +252,71 @@ class SlabConvolution:
 
     def apply_at(self, values, positions: np.ndarray, single: bool = False) -> np.ndarray:
         """k ⊛ x for x equal to ``values`` at the flat ``positions`` of this rank's (rows, ny) slab
-        and zero elsewhere; the result as from :meth:`apply`. The values go straight into the
-        padded rows buffer, where only the positions of the last such call are cleared: for a
-        sparse x (a contact set) that saves zeroing a slab of N values and copying it in."""
+        and zero elsewhere; the result as from :meth:`apply`. A sparse x (a contact set) goes
+        straight into the padded rows buffer, where only the positions of the last such call are
+        cleared: that saves zeroing a slab of N values and copying it in. An x at more than one
+        node in DENSE_WRITE is scattered into a flat slab and copied in."""
         return self._filtered(self._transform(single, self._written_at(values, positions, single)), single)
 
     def restricted(self, values, positions: np.ndarray, single: bool = False) -> np.ndarray:
         """(k ⊛ x) at the flat ``positions`` of this rank's (rows, ny) slab for x equal to
         ``values`` there and zero elsewhere (R_S K R_Sᵀ on a set S), read off the product before
         it is cropped to the grid: on a period longer than the grid the crop is strided, and
-        reading it flat copied the whole slab (67 MB a call at 4096² in single precision)."""
+        reading it flat copied the whole slab (67 MB a call at 4096² in single precision). A
+        dense x is read back through the columns buffer, free once the product is made."""
         occupied = self._written_at(values, positions, single)
         whole = self._filtered(self._transform(single, occupied), single, crop=False)
-        return whole.reshape(-1)[self._written[single]]
+        index = self._written[single]
+        if index is not None:
+            return whole.reshape(-1)[index]
+        flat = self._scratch(single, whole.shape[0] * self.shape[1])       # written dense
+        if flat is None or np.may_share_memory(flat, whole):
+            return np.ascontiguousarray(whole[:, :self.shape[1]]).reshape(-1)[positions]
+        flat.reshape(whole.shape[0], -1)[...] = whole[:, :self.shape[1]]
+        return flat[positions]
 
     def _written_at(self, values, positions: np.ndarray, single: bool) -> np.ndarray:
         """Write ``values`` at the slab ``positions`` into the zeroed rows buffer of one precision;
-        the mask of the rows that hold them."""
+        the mask of the rows that hold them. Where the positions are more than one node in
+        DENSE_WRITE of the slab, the values are scattered into the columns buffer seen as a flat
+        slab (the transform writes it whole before reading it) and copied into the rows: near
+        full contact at 2048² (86 % of the nodes) the padded indices, a division and a modulo of
+        each position, took more than half of the 22 ms a write took."""
         rows = self._padded(single)[0]
-        ny, ly = self.shape[1], self.lengths[1]
-        row = positions // ny
-        index = positions if ly == ny else row * ly + positions % ny
+        count, ny, ly = rows.shape[0], self.shape[1], self.lengths[1]
+        block = rows[:, :ny]
+        flat = self._scratch(single, count * ny) if DENSE_WRITE * positions.size > count * ny else None
+        if flat is not None:
+            flat.fill(0.0)
+            flat[positions] = values
+            block[...] = flat.reshape(count, ny)
+            self._written[single] = None                    # the whole block: zeroed whole next
+            return block.any(axis=1)
         last = self._written.get(single)
-        if last is None:
-            rows[:, :ny] = 0.0
+        if last is None or DENSE_WRITE * last.size > count * ny:
+            block[...] = 0.0
         else:
             rows.reshape(-1)[last] = 0.0
+        row = positions // ny
+        if ly == ny:
+            index = positions
+        else:
+            index = row * (ly - ny)
+            index += positions
         rows.reshape(-1)[index] = values
         self._written[single] = index
-        occupied = np.zeros(rows.shape[0], dtype=bool)
+        occupied = np.zeros(count, dtype=bool)
         occupied[row] = True
         return occupied
+
+    def _scratch(self, single: bool, size: int) -> np.ndarray | None:
+        """The first ``size`` values of the columns buffer of one precision seen as reals, or None
+        where it holds fewer (free between products: every transform writes it whole first)."""
+        rows, columns = self._padded(single)
+        if not columns.flags.c_contiguous:
+            return None
+        flat = columns.reshape(-1).view(rows.dtype)
+        return flat[:size] if flat.size >= size else None
 
     def _filtered(self, spectrum: np.ndarray, single: bool, crop: bool = True) -> np.ndarray:
         """The product from the field's transform: times the symbol, transformed back."""

@@ -176,6 +176,13 @@ def _near(field: np.ndarray, comm, first_row: int, beyond: bool) -> np.ndarray:
             if first_row - RIM <= row < first_row + rows + RIM:
                 window[row - first_row + RIM, RIM:RIM + ny] = values
     window[RIM:RIM + rows, RIM:RIM + ny] = field       # rows and columns past the grid keep ``beyond``
-    grown = ndimage.maximum_filter(window, size=2 * RIM + 1, mode="constant", cval=beyond)
-    return grown[RIM:RIM + rows, RIM:RIM + ny]
+    # the square's maximum as ORs of shifted views, along y and then x: scipy's maximum_filter
+    # took 115 ms a call on a 4096² slab, 1.8 s of the large-grid scene's solve
+    across = window[:, :ny].copy()
+    for shift in range(1, 2 * RIM + 1):
+        across |= window[:, shift:shift + ny]
+    grown = across[:rows].copy()
+    for shift in range(1, 2 * RIM + 1):
+        grown |= across[shift:shift + rows]
+    return grown
 

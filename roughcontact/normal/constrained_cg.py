@@ -470,8 +470,8 @@ class ConstrainedCGSolver(NormalSolver):
                 # the hole charge while the set changes by one node in EDGE_UPDATES or fewer
                 # (``CGSettings.hole_block``); the directions restart where M changes
                 taking, stale, previous, since_restart = not taking, True, None, 0
-                # its rims found again where it starts: the set moved since they were last found
-                holes.labelled = holes.labelled and not taking
+                if taking:                             # the set moved since its rims were found
+                    holes.labelled = False
             charge = holes if taking else None         # the hole charge of this iteration (None: none)
             if stale or counts[0] > 0:
                 # the weights of the set as it is now: kept from the last restart while the set

@@ -269,9 +269,8 @@ class SlabConvolution:
         index = self._written[single]
         if index is not None:
             return whole.reshape(-1)[index]
-        flat = self._scratch(single, whole.shape[0] * self.shape[1])       # written dense
-        if flat is None or np.may_share_memory(flat, whole):
-            return np.ascontiguousarray(whole[:, :self.shape[1]]).reshape(-1)[positions]
+        # written dense (the write made sure the buffer holds the slab); the product is a new array
+        flat = _flat_slab(*self._padded(single), whole.shape[0] * self.shape[1])
         flat.reshape(whole.shape[0], -1)[...] = whole[:, :self.shape[1]]
         return flat[positions]
 
@@ -282,10 +281,10 @@ class SlabConvolution:
         slab (the transform writes it whole before reading it) and copied into the rows: near
         full contact at 2048² (86 % of the nodes) the padded indices, a division and a modulo of
         each position, took more than half of the 22 ms a write took."""
-        rows = self._padded(single)[0]
+        rows, columns = self._padded(single)
         count, ny, ly = rows.shape[0], self.shape[1], self.lengths[1]
         block = rows[:, :ny]
-        flat = self._scratch(single, count * ny) if DENSE_WRITE * positions.size > count * ny else None
+        flat = _flat_slab(rows, columns, count * ny) if DENSE_WRITE * positions.size > count * ny else None
         if flat is not None:
             flat.fill(0.0)
             flat[positions] = values
@@ -308,15 +307,6 @@ class SlabConvolution:
         occupied = np.zeros(count, dtype=bool)
         occupied[row] = True
         return occupied
-
-    def _scratch(self, single: bool, size: int) -> np.ndarray | None:
-        """The first ``size`` values of the columns buffer of one precision seen as reals, or None
-        where it holds fewer (free between products: every transform writes it whole first)."""
-        rows, columns = self._padded(single)
-        if not columns.flags.c_contiguous:
-            return None
-        flat = columns.reshape(-1).view(rows.dtype)
-        return flat[:size] if flat.size >= size else None
 
     def _filtered(self, spectrum: np.ndarray, single: bool, crop: bool = True) -> np.ndarray:
         """The product from the field's transform: times the symbol, transformed back."""
@@ -482,6 +472,16 @@ def _runs(mask: np.ndarray) -> np.ndarray:
     """(start, stop) of each run of True in a 1-D boolean mask, shape (runs, 2)."""
     edges = np.flatnonzero(np.diff(mask.view(np.int8), prepend=np.int8(0), append=np.int8(0)))
     return edges.reshape(-1, 2)
+
+
+def _flat_slab(rows: np.ndarray, columns: np.ndarray, size: int) -> np.ndarray | None:
+    """The first ``size`` values of the columns buffer seen as reals of the rows buffer's dtype, or
+    None where it holds fewer (a rank with few columns; free between products: every transform
+    writes it whole first)."""
+    if not columns.flags.c_contiguous:
+        return None
+    flat = columns.reshape(-1).view(rows.dtype)
+    return flat[:size] if flat.size >= size else None
 
 
 def _leading(block: np.ndarray, dtype) -> np.ndarray:

@@ -61,6 +61,8 @@ from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from ..surfaces.rows import rows_window
+
 #: the side of the blocks on which the hole charge is taken back (nodes)
 HOLE_BLOCK = 64
 #: the rims of holes: the nodes within this many (a square) of a hole and not of the open outside
@@ -136,8 +138,8 @@ class HoleCharge:
         outside[self.layout.positions[members]] = False
         outside = outside.reshape(r1 - r0, ny)
         holes = enclosed(outside, self.comm, r0, nx)
-        near_hole = _near(holes, self.comm, r0, beyond=False)
-        near_open = _near(outside & ~holes, self.comm, r0, beyond=True)
+        near_hole = _near(holes, self.comm, r0, nx, beyond=False)
+        near_open = _near(outside & ~holes, self.comm, r0, nx, beyond=True)
         self.rim = (near_hole & ~near_open).reshape(-1)
         self.labelled = True
 
@@ -163,19 +165,17 @@ class HoleCharge:
         z -= self.scale * sums[self.blocks]
 
 
-def _near(field: np.ndarray, comm, first_row: int, beyond: bool) -> np.ndarray:
+def _near(field: np.ndarray, comm, first_row: int, rows_total: int, beyond: bool) -> np.ndarray:
     """The nodes of this rank's (rows, ny) slab within RIM nodes (a square) of a True node of
-    ``field`` over all ranks; ``beyond``: the nodes past the grid's edges count as True;
-    collective (each rank's first and last RIM rows are gathered)."""
+    ``field`` over all ranks (rows ``first_row`` on of ``rows_total``); ``beyond``: the nodes past
+    the grid's edges count as True; collective (the RIM rows beyond the slab's ends come from
+    the ranks that hold them, :func:`~roughcontact.surfaces.rows.rows_window`)."""
     rows, ny = field.shape
-    kept = sorted({*range(min(RIM, rows)), *range(max(rows - RIM, 0), rows)})      # local rows
-    edges = [(first_row + row, field[row]) for row in kept]
-    window = np.full((rows + 2 * RIM, ny + 2 * RIM), beyond)
-    for part in comm.allgather(edges):
-        for row, values in part:
-            if first_row - RIM <= row < first_row + rows + RIM:
-                window[row - first_row + RIM, RIM:RIM + ny] = values
-    window[RIM:RIM + rows, RIM:RIM + ny] = field       # rows and columns past the grid keep ``beyond``
+    start, stop = (max(first_row - RIM, 0), min(first_row + rows + RIM, rows_total)) if rows \
+        else (first_row, first_row)
+    window = np.full((rows + 2 * RIM, ny + 2 * RIM), beyond)   # rows and columns past the grid keep it
+    window[start - first_row + RIM:stop - first_row + RIM, RIM:RIM + ny] = \
+        rows_window(field, (first_row, first_row + rows), (start, stop), comm)
     # the square's maximum as ORs of shifted views, along y and then x: scipy's maximum_filter
     # took 115 ms a call on a 4096² slab, 1.8 s of the large-grid scene's solve
     across = window[:, :ny].copy()
@@ -185,4 +185,3 @@ def _near(field: np.ndarray, comm, first_row: int, beyond: bool) -> np.ndarray:
     for shift in range(1, 2 * RIM + 1):
         grown |= across[shift:shift + rows]
     return grown
-

@@ -10,7 +10,7 @@ rows (``gather=False``), so no rank holds the whole grid and the wall time is
 the problem's set-up and solve alone.
 
     python -m benchmarks.bench_scaling --sizes 4096 --ranks 1 2 4 8 16 --bind-to core
-        [--repeats 1] [--output results/bench_scaling.json]
+        [--repeats 1] [--output results/bench_scaling.json] [--profile DIR]
 
 Per size and rank count: wall time (median of ``--repeats``, set-up of the
 operator and every level of the start included), speed-up and parallel
@@ -36,11 +36,18 @@ clocks around the package's own methods, all levels): ``nested_s`` the
 coarse-to-fine start (its own products included), ``products_s`` every
 FFT product of the operator and its preconditioner, ``transposes_s`` the
 slab FFT's all-to-all exchanges inside them, and ``rest_s`` = seconds −
-products_s (the CG's vector work, reductions and set-up).
+products_s (the CG's vector work, reductions and set-up). Each rank's own
+seconds are kept too (``nested_s_by_rank`` ...), with the contact nodes each
+rank holds (``contact_nodes_by_rank``): the slabs hold equal rows, but the
+CG's work on the free set, and the transforms along y of the rows the set
+occupies, follow the contact set, which on this scene gathers on a few
+slabs. ``--profile DIR`` has every rank write cProfile statistics of its
+solves there (an mpi4py call's waiting counts in its caller's own time).
 """
 from __future__ import annotations
 
 import argparse
+import cProfile
 import os
 import tempfile
 import time
@@ -114,18 +121,31 @@ def worker(args) -> None:
     times, result, threads = [], None, None
     phases = {"nested": (NestedStart, ("start",)), "products": (SlabConvolution, ("apply", "apply_at")),
               "transposes": (SlabConvolution, ("_exchange",))}
+    profile = cProfile.Profile() if args.profile else None
     with clocked(phases) as spent:
         for _ in range(args.repeats):
             comm.Barrier()
             t0 = time.perf_counter()
+            if profile:
+                profile.enable()
             problem = scene_problem(topography, comm)
             result = solve_scene(problem, SCENE_PRESSURE, gather=False)
             threads = problem.flexibility.convolution.workers      # the FFT threads the operator used
             problem.destroy()
+            if profile:
+                profile.disable()
             comm.Barrier()
             times.append(time.perf_counter() - t0)
-    split = {f"{name}_s": comm.allreduce(seconds / args.repeats, op=MPI.MAX) for name, seconds in spent.items()}
+    if profile:
+        Path(args.profile).mkdir(parents=True, exist_ok=True)
+        profile.dump_stats(Path(args.profile) / f"n{n}_ranks{comm.Get_size()}_rank{comm.Get_rank()}.prof")
+    by_rank = {f"{name}_s_by_rank": comm.allgather(seconds / args.repeats) for name, seconds in spent.items()}
+    split = {f"{name}_s": max(seconds) for name, seconds in
+             ((key[:-len("_s_by_rank")], values) for key, values in by_rank.items())}
     force = np.asarray(result.force)
+    # the contact set's nodes on each rank: the CG's work on the free set, and the transforms
+    # along y of the rows it occupies, follow them, while the slabs hold equal rows
+    contact_by_rank = comm.allgather(int(np.count_nonzero(force > 0)))
     emit(comm, rows, {
         "n": n, "ranks": comm.Get_size(), "seconds": float(np.median(times)), "all_seconds": times,
         "repeats": args.repeats, "iterations": result.linear_iterations,
@@ -134,11 +154,11 @@ def worker(args) -> None:
         "force_sum": comm.allreduce(float(force.sum())),
         "force_sum_squares": comm.allreduce(float(np.dot(force.ravel(), force.ravel()))),
         "force_max": comm.allreduce(float(force.max(initial=0.0)), op=MPI.MAX),
-        "contact_nodes": comm.allreduce(int(np.count_nonzero(force > 0))),
+        "contact_nodes": sum(contact_by_rank), "contact_nodes_by_rank": contact_by_rank,
         "fft_threads_per_rank": threads,
         "cores_per_rank": len(os.sched_getaffinity(0)),
         "peak_rss_bytes_per_rank": comm.allreduce(proc_status("VmHWM"), op=MPI.MAX),
-        **split, "rest_s": float(np.mean(times)) - split["products_s"]})
+        **split, "rest_s": float(np.mean(times)) - split["products_s"], **by_rank})
     write_rows(comm, rows, args.json)
 
 
@@ -163,6 +183,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[4096])
     parser.add_argument("--surface", help=argparse.SUPPRESS)
+    parser.add_argument("--profile", metavar="DIR",
+                        help="each rank writes cProfile statistics of its solves to "
+                             "DIR/n<n>_ranks<ranks>_rank<rank>.prof")
     add_launch_arguments(parser, repeats=1, output="results/bench_scaling.json", binding=True)
     args = parser.parse_args()
     if args.worker:
@@ -181,7 +204,9 @@ def main() -> None:
             print(f"{n}²: surface made and written in {time.perf_counter() - t0:.1f} s", flush=True)
             mine: list[dict] = []
             for ranks in args.ranks:
-                mine += run_on_ranks(__spec__.name, [ranks], ["--surface", str(path), "--repeats", str(args.repeats)],
+                profile = ["--profile", str(Path(args.profile).resolve())] if args.profile else []
+                mine += run_on_ranks(__spec__.name, [ranks],
+                                     ["--surface", str(path), "--repeats", str(args.repeats), *profile],
                                      bind_to=args.bind_to)
                 compare(mine)
                 report["rows"] = [r for r in report["rows"] if r["n"] != n] + mine
@@ -192,6 +217,7 @@ def main() -> None:
               + (f", speed-up {row['speedup']:5.2f}, efficiency {row['efficiency']:.2f}" if "speedup" in row else "")
               + f", {row['iterations']} fine iterations, {row['bytes_per_node_per_rank']:.0f} B/node per rank"
               + f", {row['fft_threads_per_rank']} FFT thread(s) per rank"
+              + f", contact nodes per rank {min(row['contact_nodes_by_rank'])}–{max(row['contact_nodes_by_rank'])}"
               + (f" (products {row['products_s']:.2f} s, of which transposes {row['transposes_s']:.2f} s; "
                  f"nested start {row['nested_s']:.2f} s)" if "products_s" in row else "")
               + {True: "", False: ", FORCES DIFFER FROM ONE RANK",

@@ -14,9 +14,10 @@ import numpy as np
 import pytest
 
 from roughcontact.materials import Interface, Material
+from roughcontact.operators import near_field as near_field_module
 from roughcontact.operators.flexibility import Flexibility
 from roughcontact.operators.kernel import punch_kernel
-from roughcontact.operators.near_field import NearField, PendingFarField
+from roughcontact.operators.near_field import NearField, PendingFarField, _union
 from roughcontact.surfaces import Topography, disc
 
 ROCK = Interface(Material(20e9, 0.2), Material(20e9, 0.2))
@@ -98,9 +99,12 @@ def test_far_field_is_within_the_bound(flexibility, radius):
     assert field.max() == pytest.approx(near.far_bound, rel=1e-12)
 
 
-def test_settling_the_deferred_forces_completes_the_displacement(flexibility):
+@pytest.mark.parametrize("union_mask", [near_field_module.UNION_MASK, 10 ** 9])
+def test_settling_the_deferred_forces_completes_the_displacement(flexibility, union_mask, monkeypatch):
     """H p with the near fields of two deferred cuts, rescaled once, plus what settle() returns
-    with a third cut equals H of all the forces (double-precision products, 1e-10)."""
+    with a third cut equals H of all the forces (double-precision products, 1e-10); the product's
+    nodes merged by np.unique (these sets are small) and through a mask (UNION_MASK raised)."""
+    monkeypatch.setattr(near_field_module, "UNION_MASK", union_mask)
     near = NearField(flexibility, 4)
     pending = PendingFarField(near)
     base = mine(flexibility, spread_forces(seed=3, count=40))
@@ -126,6 +130,22 @@ def test_settling_the_deferred_forces_completes_the_displacement(flexibility):
     assert pending.count == 0 and pending.mass == 0.0 and not pending.entries
     clipped[nodes] = 0.0
     assert not clipped.any()                               # the deferred forces left it again
+
+
+@pytest.mark.parametrize("count", [0, 5, 300, 5000])
+def test_the_merged_nodes_are_the_sorted_union(count):
+    """_union is the set union, sorted, once each (against numpy's union1d), on both sides of
+    UNION_MASK: sets overlapping each other, repeating indices, unsorted, or empty."""
+    rng = np.random.default_rng(count)
+    size = 4096
+    sets = [rng.integers(0, size, count), np.sort(rng.choice(size, count // 2, replace=False)),
+            np.zeros(0, dtype=np.intp), rng.integers(0, size, count // 3)]
+    expected = np.zeros(0, dtype=np.intp)
+    for indices in sets:
+        expected = np.union1d(expected, indices)
+    merged = _union(sets, size)
+    np.testing.assert_array_equal(merged, expected)
+    assert merged.dtype == np.intp
 
 
 def test_the_bound_counts_every_deferred_force(flexibility):

@@ -122,9 +122,11 @@ class HoleCharge:
         self.grid = (-(-nx // block), -(-ny // block))  # blocks per direction
         self.count = self.grid[0] * self.grid[1]        # blocks
         self.rim = np.zeros(0, dtype=bool)              # the rims of holes, over this rank's slab
-        self.blocks = np.zeros(0, dtype=np.int32)       # the block of each node of S
-        self.scale = np.zeros(0)                        # r_i / (1ᵀ r_b) on S
-        self.charge = np.zeros(0)                       # r on S (0 off the rims)
+        # r^h is zero off the rims: the charge is kept on the nodes of S on a rim alone
+        self.on_rim = np.zeros(0, dtype=np.intp)        # their places in S
+        self.blocks = np.zeros(0, dtype=np.int32)       # their blocks
+        self.scale = np.zeros(0)                        # r_i / (1ᵀ r_b) there
+        self.charge = np.zeros(0)                       # r there
         self.active = False                             # whether any block takes charge back
         self.labelled = False                           # whether the rims have been found
 
@@ -148,10 +150,14 @@ class HoleCharge:
         ``edge`` (on the same nodes); collective."""
         ny = self.layout.shape[1]
         positions = self.layout.positions[nodes]
-        rows = positions // ny + self.layout.rows[0]
-        self.blocks = ((rows // self.block) * self.grid[1] + (positions % ny) // self.block).astype(np.int32)
-        self.charge = edge * self.factor
-        self.charge[~self.rim[positions]] = 0.0
+        # only the rims' nodes carry charge: near full contact at 2048² the blocks and scales of
+        # every node of S took 59 ms an update and the block sums 27 ms a subtraction
+        self.on_rim = np.flatnonzero(self.rim[positions])
+        positions = positions[self.on_rim]
+        rows, columns = np.divmod(positions, ny)
+        rows += self.layout.rows[0]
+        self.blocks = ((rows // self.block) * self.grid[1] + columns // self.block).astype(np.int32)
+        self.charge = edge[self.on_rim] * self.factor
         totals = self.comm.allreduce(np.bincount(self.blocks, weights=self.charge, minlength=self.count))
         inverse = np.divide(1.0, totals, out=np.zeros_like(totals), where=totals > 0)
         self.scale = self.charge * inverse[self.blocks]
@@ -161,8 +167,9 @@ class HoleCharge:
         """z −= Σ_b r_b (r_bᵀ g) / (1ᵀ r_b) on the free set of the last :meth:`update`; collective."""
         if not self.active:
             return
-        sums = self.comm.allreduce(np.bincount(self.blocks, weights=self.charge * g, minlength=self.count))
-        z -= self.scale * sums[self.blocks]
+        sums = self.comm.allreduce(np.bincount(self.blocks, weights=self.charge * g[self.on_rim],
+                                               minlength=self.count))
+        z[self.on_rim] -= self.scale * sums[self.blocks]
 
 
 def _near(field: np.ndarray, comm, first_row: int, rows_total: int, beyond: bool) -> np.ndarray:

@@ -103,6 +103,37 @@ def test_the_rims_of_holes_match_a_whole_grid_reference_on_any_rank_count(comm, 
         flex.destroy()
 
 
+@pytest.mark.parametrize("hole", [False, True])
+def test_a_constant_gap_loses_the_charge_on_the_rims_on_any_rank_count(comm, hole):
+    """For g = 1 on S each block's term takes back r_b (r_bᵀ 1) / (1ᵀ r_b) = r_b: z loses exactly
+    r = e (1 − share) / share on the rims (scipy's, on the whole grid) and nothing elsewhere
+    (round-off of one division and one product, 1e-14). The set's outside is a strip open to the
+    left edge, with or without a hole of 2 × 2 in the first rows: ranks without rims, or no rims
+    at all, take part in the charge's sums with nothing of their own."""
+    n, m = 24, 20
+    inside = np.ones((n, m), dtype=bool)
+    inside[:, :3] = False
+    if hole:
+        inside[2:4, 10:12] = False
+    flex = Flexibility(Topography(np.zeros((n, m)), SPACING), ROCK, comm, kind="fft")
+    try:
+        r0, _ = flex.layout.rows
+        members = inside.reshape(-1)[r0 * m + flex.layout.positions]
+        nodes = np.flatnonzero(members)
+        edge = 1.0 + np.random.default_rng(r0).random(nodes.size)
+        holes = HoleCharge(flex.layout, comm, share=0.8, block=8)
+        holes.relabel(members)
+        holes.update(nodes, edge)
+        rims = whole_grid_rims(inside).reshape(-1)[r0 * m + flex.layout.positions][nodes]
+        z = np.zeros(nodes.size)
+        holes.subtract(np.ones(nodes.size), z)
+        np.testing.assert_allclose(z, -np.where(rims, edge * 0.25, 0.0), rtol=1e-14, atol=0.0)
+        assert holes.active == hole
+        assert comm.allreduce(int(rims.sum())) == (12 if hole else 0)    # the 4 × 4 square less the hole
+    finally:
+        flex.destroy()
+
+
 @pytest.mark.parametrize("density", [0.6, 0.9])
 def test_the_hole_charge_keeps_the_preconditioner_positive_definite(density):
     """M' = M − Σ_b r^h_b r^h_bᵀ / (1ᵀ r^h_b) on a random set of 24² with blocks of 8: symmetric;

@@ -158,7 +158,7 @@ class HoleCharge:
         rows += self.layout.rows[0]
         self.blocks = ((rows // self.block) * self.grid[1] + columns // self.block).astype(np.int32)
         self.charge = edge[self.on_rim] * self.factor
-        totals = self.comm.allreduce(np.bincount(self.blocks, weights=self.charge, minlength=self.count))
+        totals = self.comm.allreduce(_block_sums(self.blocks, self.charge, self.count))
         inverse = np.divide(1.0, totals, out=np.zeros_like(totals), where=totals > 0)
         self.scale = self.charge * inverse[self.blocks]
         self.active = bool(np.any(totals > 0))
@@ -167,9 +167,14 @@ class HoleCharge:
         """z −= Σ_b r_b (r_bᵀ g) / (1ᵀ r_b) on the free set of the last :meth:`update`; collective."""
         if not self.active:
             return
-        sums = self.comm.allreduce(np.bincount(self.blocks, weights=self.charge * g[self.on_rim],
-                                               minlength=self.count))
+        sums = self.comm.allreduce(_block_sums(self.blocks, self.charge * g[self.on_rim], self.count))
         z[self.on_rim] -= self.scale * sums[self.blocks]
+
+
+def _block_sums(blocks: np.ndarray, values: np.ndarray, count: int) -> np.ndarray:
+    """The sum of ``values`` on each of ``count`` blocks, float64 also where no node is on a rim
+    (np.bincount of nothing is integer)."""
+    return np.bincount(blocks, weights=values, minlength=count).astype(float, copy=False)
 
 
 def _near(field: np.ndarray, comm, first_row: int, rows_total: int, beyond: bool) -> np.ndarray:

@@ -139,9 +139,9 @@ def worker(args) -> None:
     if profile:
         Path(args.profile).mkdir(parents=True, exist_ok=True)
         profile.dump_stats(Path(args.profile) / f"n{n}_ranks{comm.Get_size()}_rank{comm.Get_rank()}.prof")
-    by_rank = {f"{name}_s_by_rank": comm.allgather(seconds / args.repeats) for name, seconds in spent.items()}
-    split = {f"{name}_s": max(seconds) for name, seconds in
-             ((key[:-len("_s_by_rank")], values) for key, values in by_rank.items())}
+    per_rank = {name: comm.allgather(seconds / args.repeats) for name, seconds in spent.items()}
+    split = {f"{name}_s": max(values) for name, values in per_rank.items()}     # the slowest rank's
+    by_rank = {f"{name}_s_by_rank": values for name, values in per_rank.items()}
     force = np.asarray(result.force)
     # the contact set's nodes on each rank: the CG's work on the free set, and the transforms
     # along y of the rows it occupies, follow them, while the slabs hold equal rows

@@ -144,8 +144,8 @@ class PendingFarField:
 def _union(sets: list[np.ndarray], size: int) -> np.ndarray:
     """The sorted union of index ``sets`` into a vector of ``size``: np.unique of their
     concatenation where they are small, a mask where they hold more than one index in
-    UNION_MASK (near full contact at 2048² np.unique's sort took 0.8 s of a solve; a mask's
-    pass over the rank's nodes costs the same whatever the sets)."""
+    UNION_MASK (near full contact at 2048² np.unique took 0.68 s for the 78 merges of a solve,
+    the mask 0.16 s; a mask's pass over the rank's nodes costs the same whatever the sets)."""
     if sum(indices.size for indices in sets) * UNION_MASK <= size:
         return np.unique(np.concatenate(sets))
     marked = np.zeros(size, dtype=bool)

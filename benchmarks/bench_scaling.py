@@ -196,6 +196,7 @@ def main() -> None:
     report = {"benchmark": "strong scaling of one normal solve (large-grid scene, surface and result by rows)",
               "machine": {"cpus": os.cpu_count()}, "bind_to": args.bind_to, "repeats": args.repeats,
               "invariant_rtol": INVARIANT_RTOL, "rows": []}
+    profile = ["--profile", str(Path(args.profile).resolve())] if args.profile else []
     with tempfile.TemporaryDirectory() as tmp:
         for n in args.sizes:
             path = Path(tmp) / f"scene_{n}.nc"
@@ -204,7 +205,6 @@ def main() -> None:
             print(f"{n}²: surface made and written in {time.perf_counter() - t0:.1f} s", flush=True)
             mine: list[dict] = []
             for ranks in args.ranks:
-                profile = ["--profile", str(Path(args.profile).resolve())] if args.profile else []
                 mine += run_on_ranks(__spec__.name, [ranks],
                                      ["--surface", str(path), "--repeats", str(args.repeats), *profile],
                                      bind_to=args.bind_to)

@@ -28,7 +28,7 @@ midpoint, Δ = 2.3, ν = 0, about 1.4 % of the nodes in contact) at 513², norma
 
 ``--warm-heap`` touches that much heap per rank before the solves and keeps it, so that a solve
 does not pay the first touch of its memory: on a virtual machine that reports freed pages to its
-host that first touch costs about 2 s per GiB (docs/solvers.md, "First touches on a virtual
+host that first touch costs about 2 s per GiB (docs/solver-cost.md, "First touches on a virtual
 machine"), 5-7 s of a 4096² solve.
 
 Times are medians of ``--repeats`` runs (one at 2048² and above).

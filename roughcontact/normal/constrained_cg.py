@@ -149,7 +149,7 @@ class CGSettings:
         1024²). Where the residual reaches no new lowest value for 2 × ``renew``
         iterations above SINGLE_FLOOR (the free set cycling: near full contact
         at 1024², Δ = 2.8) the rest of the solve takes the plain one.
-        docs/solvers.md, "The edge correction".
+        docs/solver-cost.md, "The edge correction".
     hole_block
         The side (nodes) of the blocks on which the preconditioner takes back
         the edge charge left on the rims of holes, the parts of the outside of

@@ -5,7 +5,7 @@ own, whose pages the kernel zeroes on first touch, and unmaps it when it is free
 on 2048² nodes of one rank or more makes three such blocks every time it is taken — scipy's
 transform of the rows, its inverse, and the float64 product on the nodes (128 MiB each at
 4096²) — and each is zeroed again: about 9 ms per 128 MiB on this project's machines, 5.7 s of
-a 55 s 4096² solve in the nodal copy alone (docs/solvers.md, "Large temporaries").
+a 55 s 4096² solve in the nodal copy alone (docs/solver-cost.md, "Large temporaries").
 
 :func:`retain_large_blocks` raises glibc's mmap and trim thresholds to :data:`LARGEST`, so
 such blocks come from the heap and their pages stay with the process for the next product.
@@ -79,7 +79,7 @@ def hold_touched_pages(nbytes: int = 0) -> bool:
     more than a few seconds before is a fault on the host, about 2 s per GiB on this project's
     machines against 0.1 s per GiB for pages the host still backs, so a one-solve process pays
     it for its whole peak, and a transform whose freed blocks go back to the system pays it at
-    every call (docs/solvers.md, "First touches on a virtual machine").
+    every call (docs/solver-cost.md, "First touches on a virtual machine").
     """
     if not retain_large_blocks():
         return False

@@ -126,17 +126,17 @@ def worker(args) -> None:
         for _ in range(args.repeats):
             comm.Barrier()
             t0 = time.perf_counter()
-            if profile:
+            if profile is not None:
                 profile.enable()
             problem = scene_problem(topography, comm)
             result = solve_scene(problem, SCENE_PRESSURE, gather=False)
             threads = problem.flexibility.convolution.workers      # the FFT threads the operator used
             problem.destroy()
-            if profile:
+            if profile is not None:
                 profile.disable()
             comm.Barrier()
             times.append(time.perf_counter() - t0)
-    if profile:
+    if profile is not None:
         Path(args.profile).mkdir(parents=True, exist_ok=True)
         profile.dump_stats(Path(args.profile) / f"n{n}_ranks{comm.Get_size()}_rank{comm.Get_rank()}.prof")
     per_rank = {name: comm.allgather(seconds / args.repeats) for name, seconds in spent.items()}

@@ -37,10 +37,12 @@ benchmarks/bench_products.py (Δ = 2.5 at 1 E*). Rows ``edge<share>``
 precondition with M less the edge correction of the
 package (:mod:`roughcontact.operators.preconditioner`, e = share · min(max(κ, 0),
 EDGE_CAP · C⁻¹_ii)) at several shares; its weights cost one periodic
-product per set.
+product per set. Rows ``modes-<name>`` (``--parts modes``): the solver's
+whole preconditioner (edge correction and hole charge) and variants of its
+diagonal, and where the solver's top and bottom modes live (:func:`mode_rows`).
 
     python -m benchmarks.bench_deflation [--sizes 256 512 1024 2048] [--max-vectors 120]
-        [--scenes scene full] [--parts deflation spectrum edge schur period]
+        [--scenes scene full] [--parts deflation spectrum edge schur period modes]
         [--output results/bench_deflation.json]
 """
 from __future__ import annotations
@@ -63,10 +65,13 @@ from benchmarks.common import (
 )
 
 TOL = 1e-8
-#: the row groups: deflated PCG (``none``, ``poly``, ``block``), ``spectrum``, ``edge``, ``schur``, ``period``
-PARTS = ("deflation", "spectrum", "edge", "schur", "period")
+#: the row groups: deflated PCG (``none``, ``poly``, ``block``), ``spectrum``, ``edge``, ``schur``, ``period``,
+#: ``modes``
+PARTS = ("deflation", "spectrum", "edge", "schur", "period", "modes")
 #: the ``period`` rows' frame: nodes within this many of the grid's edges
 FRAME = 8
+#: the ``modes`` rows' classes of islands by their nodes: (label, more than, at most)
+ISLAND_SIZES = (("<=16", 0, 16), ("17-256", 16, 256), (">256", 256, np.inf))
 #: the shares of the edge term the ``edge<share>`` rows remove (at the package's cap)
 EDGE_SHARES = (0.5, 0.7, 0.8, 0.9)
 
@@ -173,6 +178,9 @@ def scene_rows(comm, scene: str, n: int, args) -> list[dict]:
     if "period" in parts:
         for row in period_rows(flexibility, apply, contact, problem.nodes[contact], n, rhs):
             emit(comm, rows, {**base, **row})
+    if "modes" in parts:
+        for row in mode_rows(problem, apply, contact, result.contact, rhs):
+            emit(comm, rows, {**base, **row})
     problem.destroy()
     return rows
 
@@ -199,6 +207,92 @@ def period_rows(flexibility, apply, contact: np.ndarray, positions: np.ndarray, 
                    "ritz_max": float(ritz[-1]), "frame_share_of_nodes": float(frame.mean()),
                    "top_mode_frame_energy": float(np.sum(x[frame] ** 2))}
         pc.convolution.release_buffers()
+
+
+def mode_rows(problem, apply, contact: np.ndarray, in_contact: np.ndarray, rhs: np.ndarray):
+    """Rows ``modes``: the solver's whole preconditioner on the solved set (the edge correction and
+    the hole charge, as the constrained CG takes it once the set has settled) and variants of its
+    diagonal, each with fixed-set PCG iterations and Ritz values after 60 Lanczos steps; for the
+    solver's own, where its top and bottom modes live (one rank). The variants give each node i
+    of S its own share s_i of κ_i (capped at EDGE_CAP · C⁻¹_ii as the solver's) and leave
+    (1 − s_i) κ_i to the hole charge:
+
+    - ``neighbours``: 0.85 on nodes with at least 6 nodes of S in their 3 × 3 square, else 0.8;
+    - ``islands``: 0.9 on such nodes of islands of more than 256 nodes, else 0.8;
+    - ``small-islands``: 0.85 on islands of more than 64 nodes, 0.75 on the others;
+    - ``cap0.7``: 0.8 with the cap at 0.7 C⁻¹_ii;
+    - ``boundary-laplacian``: 0.9, plus 0.1 L, L the graph Laplacian of the 8-neighbour pairs
+      of S weighted by √(κ_i κ_j) (it takes nothing back from a field constant along the
+      boundary and adds to one that alternates along it).
+    """
+    from scipy import ndimage
+
+    from roughcontact.operators.holes import HoleCharge
+    from roughcontact.operators.preconditioner import EDGE_CAP, EDGE_SHARE
+
+    flexibility = problem.flexibility
+    pc = flexibility.preconditioner
+    shape = in_contact.shape
+    grid = in_contact.astype(float)
+    members = in_contact.reshape(-1)
+    sums = pc.convolution.restricted(1.0, pc.layout.positions[contact]).astype(float)   # (C⁻¹ 1_S) on S
+    kappa = np.maximum(sums - pc.inverse_row_sum, 0.0)
+    capped = np.minimum(kappa, EDGE_CAP * pc.inverse_diagonal)
+    square = np.rint(ndimage.uniform_filter(grid, size=3, mode="constant") * 9).reshape(-1)[contact]
+    labels, _ = ndimage.label(in_contact)
+    island = np.bincount(labels.ravel())[labels.reshape(-1)[contact]]
+    distance = ndimage.distance_transform_cdt(np.pad(in_contact, 1), metric="taxicab")[1:-1, 1:-1].reshape(-1)[contact]
+
+    def box(values):                                   # Σ over the 8 neighbours, on S
+        field = np.zeros(in_contact.size)
+        field[contact] = values
+        return (ndimage.uniform_filter(field.reshape(shape), size=3, mode="constant") * 9).reshape(-1)[contact] - values
+
+    root = np.sqrt(capped)
+    weight = box(root)
+
+    def laplacian(values):
+        return root * (values * weight - box(root * values))
+
+    variants = {
+        "package": (EDGE_SHARE * capped, 0.0),
+        "neighbours": (np.where(square >= 6, 0.85, 0.8) * capped, 0.0),
+        "islands": (np.where((square >= 6) & (island > 256), 0.9, 0.8) * capped, 0.0),
+        "small-islands": (np.where(island > 64, 0.85, 0.75) * capped, 0.0),
+        "cap0.7": (EDGE_SHARE * np.minimum(kappa, 0.7 * pc.inverse_diagonal), 0.0),
+        "boundary-laplacian": (0.9 * capped, 0.1),
+    }
+    for name, (edge, laplace) in variants.items():
+        whole = np.minimum(kappa, 0.7 * pc.inverse_diagonal) if name == "cap0.7" else capped
+        holes = HoleCharge(flexibility.layout, problem.comm, EDGE_SHARE)
+        holes.relabel(members)
+        holes.update(contact, (whole - edge) * EDGE_SHARE / (1.0 - EDGE_SHARE))    # r = whole − e
+
+        def preconditioned(values, edge=edge, laplace=laplace, holes=holes):
+            z = flexibility.precondition_nodes(values, contact, edge=edge)
+            if laplace:
+                z += laplace * laplacian(values)
+            holes.subtract(values, z)
+            return z
+
+        ritz = lanczos_ritz(apply, preconditioned, np.random.default_rng(1).standard_normal(contact.size), 60)
+        row = {"space": f"modes-{name}", "vectors": 0, "iterations": pcg(apply, preconditioned, rhs),
+               "ritz_min": float(ritz[0]), "ritz_max": float(ritz[-1])}
+        if name == "package":
+            # 100 power iterations for the top, 200 on 1.05 · top − M H_SS for the bottom
+            ends = (("top", power_mode(apply, preconditioned, contact.size, 100)),
+                    ("bottom", power_mode(apply, preconditioned, contact.size, 200, 1.05 * ritz[-1], seed=4)))
+            for end, mode in ends:
+                energy = mode * mode
+                row[f"{end}_sign"] = float(abs(mode.sum()) / np.abs(mode).sum())
+                row[f"{end}_energy_by_distance"] = {str(d): float(energy[np.minimum(distance, 3) == d].sum())
+                                                    for d in (1, 2, 3)}
+                row[f"{end}_energy_by_island"] = {label: float(energy[(island > lo) & (island <= hi)].sum())
+                                                  for label, lo, hi in ISLAND_SIZES}
+            row["nodes_by_distance"] = {str(d): float(np.mean(np.minimum(distance, 3) == d)) for d in (1, 2, 3)}
+            row["nodes_by_island"] = {label: float(np.mean((island > lo) & (island <= hi)))
+                                      for label, lo, hi in ISLAND_SIZES}
+        yield row
 
 
 def lanczos_ritz(apply, precondition, rhs, steps: int) -> np.ndarray:
@@ -228,11 +322,17 @@ def lanczos_ritz(apply, precondition, rhs, steps: int) -> np.ndarray:
 def extremes(apply, precondition, size: int) -> tuple[np.ndarray, np.ndarray]:
     """(Ritz values of M H_SS after 40 Lanczos steps, its top eigenvector by 60 power iterations)."""
     ritz = lanczos_ritz(apply, precondition, np.random.default_rng(1).standard_normal(size), 40)
-    x = np.random.default_rng(3).standard_normal(size)
-    for _ in range(60):
-        x = precondition(apply(x))
+    return ritz, power_mode(apply, precondition, size, 60)
+
+
+def power_mode(apply, precondition, size: int, steps: int, shift: float = 0.0, seed: int = 3) -> np.ndarray:
+    """The eigenvector of M H_SS at the top of its spectrum (``shift`` 0) or at the bottom (``shift``
+    above the top: power iterations on shift − M H_SS), unit 2-norm, after ``steps`` iterations."""
+    x = np.random.default_rng(seed).standard_normal(size)
+    for _ in range(steps):
+        x = shift * x - precondition(apply(x)) if shift else precondition(apply(x))
         x /= np.linalg.norm(x)
-    return ritz, x
+    return x
 
 
 def spectrum(apply, precondition, contact: np.ndarray, in_contact: np.ndarray) -> dict:

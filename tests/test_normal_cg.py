@@ -99,6 +99,37 @@ def test_nested_start_gives_the_cold_answer(comm):
     problem.destroy()
 
 
+def test_the_trace_follows_the_solve_and_leaves_it_unchanged(comm, caplog):
+    """The CG's trace (its logger at DEBUG): the same forces and iterations as untraced (the trace
+    only reads what the loop computes), one record per step of every level, the fine level's
+    residuals those of the result's history at the same iterations, and a step only while the
+    residual is above tol (the passes that confirm convergence take none)."""
+    import logging
+
+    problem = NormalProblem(rough(160, seed=2), FLAT, comm, operator="fft")   # one coarse level
+    untraced = solve(problem, "cg", CONTROLS["load, rotation fixed"])
+    with caplog.at_level(logging.DEBUG, logger="roughcontact.normal.constrained_cg"):
+        traced = solve(problem, "cg", CONTROLS["load, rotation fixed"])
+    steps = [record.cg_step for record in caplog.records if hasattr(record, "cg_step")]
+    problem.destroy()
+    assert np.array_equal(traced.force, untraced.force)
+    assert traced.linear_iterations == untraced.linear_iterations
+    fine = [step for step in steps if step["nodes"] == problem.size]
+    coarse = [step for step in steps if step["nodes"] < problem.size]
+    assert coarse and fine and steps == coarse + fine                 # the level below first
+    for level in (coarse, fine):
+        assert level[0]["iteration"] == 1
+        assert all(b["iteration"] > a["iteration"] for a, b in zip(level, level[1:]))
+        assert level[0]["restart"] == ["start"] and level[0]["changed"] == level[0]["free"]
+        assert all(step["alpha"] > 0.0 and step["free"] >= 1 for step in level)
+    tol = CGSettings().tol
+    history = traced.residual_history
+    assert len(fine) < traced.linear_iterations == len(history)
+    for step in fine:
+        assert step["residual"] == history[step["iteration"] - 1] and step["residual"] > tol
+    assert history[-1] <= tol
+
+
 def test_hertz_on_the_fft_path_beyond_dense_grids(comm):
     """Hertz at a/s = 16, 32, 64 (a 211² grid: 15 GiB as a dense matrix): RMS errors of the
     load and contact radius over four approaches (a single approach's error oscillates as the

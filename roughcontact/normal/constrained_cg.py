@@ -45,6 +45,14 @@ measure and default as the active-set solver), confirmed on an exactly
 recomputed H p, and raises :class:`~roughcontact.errors.ConvergenceError`
 when it cannot: the iteration limit, or a loss of positive curvature.
 
+Each iteration can be traced: with the logger ``roughcontact.normal.constrained_cg``
+at DEBUG, every step logs a record whose ``cg_step`` attribute holds the
+level's node count, the iteration, the residual it started from, the nodes
+its free set changed and holds, the step α and the restarts of the
+directions it took (benchmarks/bench_trace.py writes them as JSON). Nothing
+is reduced over the ranks for the trace, so ranks may log or not
+independently; a solve traced or not takes the same steps.
+
 References: I.A. Polonsky, L.M. Keer, Wear 231 (1999) 206–219;
 E.A.H. Vollebregt, J. Comput. Phys. 257 (2014) 333–351 (preconditioning the
 contact set with FFTs); J.J. Moré, G. Toraldo, SIAM J. Optim. 1 (1991)
@@ -52,6 +60,7 @@ contact set with FFTs); J.J. Moré, G. Toraldo, SIAM J. Optim. 1 (1991)
 """
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -65,6 +74,8 @@ from .problem import NormalProblem
 from .result import ContactState
 from .rigid_motion import newton_on_motion
 from .solver import NormalSolver
+
+_log = logging.getLogger(__name__)
 
 PRECONDITIONERS = ("fourier", "none")
 PRECISIONS = ("mixed", "double")
@@ -404,11 +415,15 @@ class ConstrainedCGSolver(NormalSolver):
         taking = False                                 # whether the hole charge is taken now
         correcting = self._corrected                   # the edge correction in use (dropped where it stalls)
         history: list[float] = []
+        tracing = _log.isEnabledFor(logging.DEBUG)    # this rank's choice: nothing collective follows
+        restarts: list[str] = []                       # why the directions restarted (the trace)
+        cause = "start"                                # why they start afresh in the next iteration
         since_refresh = 0
         best, since_best = np.inf, 0                   # the lowest residual, iterations since it
         since_restart = 0
         at_floor = False                               # H p taken exactly at SINGLE_FLOOR (mixed precision)
         for iteration in range(1, settings.max_iterations + 1):
+            restarts.clear()
             np.greater(forces, 0.0, out=in_contact)
             contact = np.flatnonzero(in_contact)
             np.subtract(displacement, w, out=lifted)
@@ -436,6 +451,7 @@ class ConstrainedCGSolver(NormalSolver):
                 # (105). After `renew` alone it also fired at 1024², Δ = 2.5, where the correction
                 # gets through a slow stretch (88 iterations against 71 without the rule, 81 plain)
                 correcting, stale, previous, since_best = False, True, None, 0
+                restarts.append("correction dropped")
             if residual <= tol or stalled:
                 if since_refresh == 0 and residual <= tol:
                     rigid[free] = approach
@@ -454,6 +470,7 @@ class ConstrainedCGSolver(NormalSolver):
                 else:
                     single = False
                 since_refresh, previous, since_best = 0, None, 0
+                cause = "confirmation"
                 continue
             # masks, not sorted-set operations: union1d's sort cost more than the FFT products at 512²
             last, last_mask, free_mask = working, free_mask, last_mask
@@ -462,14 +479,18 @@ class ConstrainedCGSolver(NormalSolver):
             counts = pb.allsum(np.array([np.count_nonzero(np.not_equal(free_mask, last_mask, out=changed)),
                                          working.size]))
             since_restart += 1
+            if previous is None and not restarts:
+                restarts.append(cause)
             if counts[0] > 0 and since_restart >= settings.renew:
                 previous = None                        # the renewal (``CGSettings.renew``)
+                restarts.append("renewal")
             if previous is None:
                 since_restart = 0
             if holes is not None and (counts[0] <= pb.size // EDGE_UPDATES) != taking:
                 # the hole charge while the set changes by one node in EDGE_UPDATES or fewer
                 # (``CGSettings.hole_block``); the directions restart where M changes
                 taking, stale, previous, since_restart = not taking, True, None, 0
+                restarts.append("charge on" if taking else "charge off")
                 if taking:                             # the set moved since its rims were found
                     holes.labelled = False
             charge = holes if taking else None         # the hole charge of this iteration (None: none)
@@ -490,8 +511,10 @@ class ConstrainedCGSolver(NormalSolver):
                 # conjugate directions restart: the last ones were made with the corrected one
                 z, gz = self._direction(g, working, single, None, load is not None, None)
                 previous = None
+                restarts.append("plain")
             if previous is not None and abs(float(pb.allsum(g @ np.take(last_z, working)))) >= settings.restart * gz:
                 previous = None                        # Powell's test (``CGSettings.restart``)
+                restarts.append("powell")
             _clear(last_z, last)
             last_z[working] = z.astype(np.float32)     # converted first: a converting scatter took twice as long
             if previous is None or gz <= 0.0:
@@ -510,6 +533,13 @@ class ConstrainedCGSolver(NormalSolver):
                     "CG_INDEFINITE", f"iteration {iteration}: dᵀHd = {curvature:.3e} <= 0 on a set of "
                                      f"{int(counts[1])} nodes; the operator is not positive definite there")
             step = gz / curvature
+            if tracing:
+                _log.debug("n %d iteration %d residual %.3e changed %d free %d alpha %.3g restart %s",
+                           pb.size, iteration, residual, counts[0], counts[1], step, "+".join(restarts) or "-",
+                           extra={"cg_step": {"nodes": int(pb.size), "iteration": iteration,
+                                              "residual": residual, "changed": int(counts[0]),
+                                              "free": int(counts[1]), "alpha": float(step),
+                                              "restart": list(restarts)}})
             trial = forces[working] - step * step_direction
             leaving = trial < 0.0
             cut = bool(pb.allmax(float(leaving.any())) > 0.0)

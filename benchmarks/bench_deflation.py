@@ -228,7 +228,7 @@ def mode_rows(problem, apply, contact: np.ndarray, in_contact: np.ndarray, rhs: 
     from scipy import ndimage
 
     from roughcontact.operators.holes import HoleCharge
-    from roughcontact.operators.preconditioner import EDGE_CAP, EDGE_SHARE
+    from roughcontact.operators.preconditioner import EDGE_SHARE
 
     flexibility = problem.flexibility
     pc = flexibility.preconditioner
@@ -237,7 +237,7 @@ def mode_rows(problem, apply, contact: np.ndarray, in_contact: np.ndarray, rhs: 
     members = in_contact.reshape(-1)
     sums = pc.convolution.restricted(1.0, pc.layout.positions[contact]).astype(float)   # (C⁻¹ 1_S) on S
     kappa = np.maximum(sums - pc.inverse_row_sum, 0.0)
-    capped = np.minimum(kappa, EDGE_CAP * pc.inverse_diagonal)
+    capped = pc.weights_from_sums(sums, share=1.0)     # min(κ, EDGE_CAP · C⁻¹_ii), the solver's
     square = np.rint(ndimage.uniform_filter(grid, size=3, mode="constant") * 9).reshape(-1)[contact]
     labels, _ = ndimage.label(in_contact)
     island = np.bincount(labels.ravel())[labels.reshape(-1)[contact]]
@@ -254,16 +254,17 @@ def mode_rows(problem, apply, contact: np.ndarray, in_contact: np.ndarray, rhs: 
     def laplacian(values):
         return root * (values * weight - box(root * values))
 
+    wider = np.minimum(kappa, 0.7 * pc.inverse_diagonal)
+    # name: (the edge weights e, the capped κ whose rest, κ − e, the hole charge takes, the Laplacian's share)
     variants = {
-        "package": (EDGE_SHARE * capped, 0.0),
-        "neighbours": (np.where(square >= 6, 0.85, 0.8) * capped, 0.0),
-        "islands": (np.where((square >= 6) & (island > 256), 0.9, 0.8) * capped, 0.0),
-        "small-islands": (np.where(island > 64, 0.85, 0.75) * capped, 0.0),
-        "cap0.7": (EDGE_SHARE * np.minimum(kappa, 0.7 * pc.inverse_diagonal), 0.0),
-        "boundary-laplacian": (0.9 * capped, 0.1),
+        "package": (EDGE_SHARE * capped, capped, 0.0),
+        "neighbours": (np.where(square >= 6, 0.85, 0.8) * capped, capped, 0.0),
+        "islands": (np.where((square >= 6) & (island > 256), 0.9, 0.8) * capped, capped, 0.0),
+        "small-islands": (np.where(island > 64, 0.85, 0.75) * capped, capped, 0.0),
+        "cap0.7": (EDGE_SHARE * wider, wider, 0.0),
+        "boundary-laplacian": (0.9 * capped, capped, 0.1),
     }
-    for name, (edge, laplace) in variants.items():
-        whole = np.minimum(kappa, 0.7 * pc.inverse_diagonal) if name == "cap0.7" else capped
+    for name, (edge, whole, laplace) in variants.items():
         holes = HoleCharge(flexibility.layout, problem.comm, EDGE_SHARE)
         holes.relabel(members)
         holes.update(contact, (whole - edge) * EDGE_SHARE / (1.0 - EDGE_SHARE))    # r = whole − e

@@ -57,13 +57,14 @@ def worker(args) -> None:
             problem = common.scene_problem(common.scene_topography(n, **SHAPES[scene]), comm)
             handler.steps.clear()
             result = common.solve_scene(problem, PRESSURES[scene], gather=False)
+            nodes = problem.size                   # the fine level's footprint nodes
             problem.destroy()
             base = {"scene": scene, "n": n, "ranks": comm.Get_size()}
             for step in handler.steps:
-                rows.append({**base, "level": "fine" if step["nodes"] == n * n else "coarse", **step})
+                rows.append({**base, "level": "fine" if step["nodes"] == nodes else "coarse", **step})
             common.emit(comm, rows, {**base, "level": "solve", "fine_iterations": result.linear_iterations,
                               "coarse_iterations": result.coarse_iterations,
-                              "fine_steps": sum(step["nodes"] == n * n for step in handler.steps),
+                              "fine_steps": sum(step["nodes"] == nodes for step in handler.steps),
                               "residual": result.residual})
     common.write_rows(comm, rows, args.json)
 

@@ -111,11 +111,12 @@ def test_the_trace_follows_the_solve_and_leaves_it_unchanged(comm, caplog):
     with caplog.at_level(logging.DEBUG, logger="roughcontact.normal.constrained_cg"):
         traced = solve(problem, "cg", CONTROLS["load, rotation fixed"])
     steps = [record.cg_step for record in caplog.records if hasattr(record, "cg_step")]
+    nodes = problem.size
     problem.destroy()
     assert np.array_equal(traced.force, untraced.force)
     assert traced.linear_iterations == untraced.linear_iterations
-    fine = [step for step in steps if step["nodes"] == problem.size]
-    coarse = [step for step in steps if step["nodes"] < problem.size]
+    fine = [step for step in steps if step["nodes"] == nodes]
+    coarse = [step for step in steps if step["nodes"] < nodes]
     assert coarse and fine and steps == coarse + fine                 # the level below first
     for level in (coarse, fine):
         assert level[0]["iteration"] == 1

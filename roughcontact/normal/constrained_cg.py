@@ -417,7 +417,6 @@ class ConstrainedCGSolver(NormalSolver):
         history: list[float] = []
         tracing = _log.isEnabledFor(logging.DEBUG)    # this rank's choice: nothing collective follows
         restarts: list[str] = []                       # why the directions restarted (the trace)
-        cause = "start"                                # why they start afresh in the next iteration
         since_refresh = 0
         best, since_best = np.inf, 0                   # the lowest residual, iterations since it
         since_restart = 0
@@ -470,7 +469,6 @@ class ConstrainedCGSolver(NormalSolver):
                 else:
                     single = False
                 since_refresh, previous, since_best = 0, None, 0
-                cause = "confirmation"
                 continue
             # masks, not sorted-set operations: union1d's sort cost more than the FFT products at 512²
             last, last_mask, free_mask = working, free_mask, last_mask
@@ -480,7 +478,8 @@ class ConstrainedCGSolver(NormalSolver):
                                          working.size]))
             since_restart += 1
             if previous is None and not restarts:
-                restarts.append(cause)
+                # nothing in this iteration: the first one, or a confirmation of convergence before
+                restarts.append("start" if iteration == 1 else "confirmation")
             if counts[0] > 0 and since_restart >= settings.renew:
                 previous = None                        # the renewal (``CGSettings.renew``)
                 restarts.append("renewal")

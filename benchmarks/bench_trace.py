@@ -7,7 +7,8 @@ size with the solver's defaults (load control, rotation fixed, the nested
 start), with the CG's logger at DEBUG on rank 0
 (:mod:`roughcontact.normal.constrained_cg`). Each row is one step of one
 level: its nodes, the iteration, the residual it started from, the nodes its
-free set changed and holds, the step α and the restarts of the directions
+free set changed and holds, the returning nodes it held back (``held``), the
+step α and the restarts of the directions
 (``start``, ``confirmation``, ``renewal``, ``powell``, ``charge on`` / ``charge
 off``: the hole charge taken or left, ``plain``, ``correction dropped``).
 A last row per solve (``level`` = ``solve``) gives its fine iterations and

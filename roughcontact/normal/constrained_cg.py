@@ -233,12 +233,12 @@ class CGSettings:
         A node that has left the contact set during the solve comes back
         into the free set only on every other iteration, by the colour of
         its square on the grid's checkerboard ((i + j) mod 2 against the
-        iteration's parity): two neighbours that left together never return
-        together. After a nested start the set churns more than it moves:
-        near full contact at 1024² (Δ = 2.5, 1 E*) the fine level's contact
-        set took 183 k entries and exits for a net change of 41 k nodes;
-        49 k nodes changed 2 to 11 times, and from the third step on 95–100 %
-        of the nodes entering had left before. Nodes entering for the first
+        iteration's parity): two side-by-side nodes that left never come back
+        in the same iteration. After a nested start the set churns more than
+        it moves: near full contact at 1024² (Δ = 2.5, 1 E*) the fine level's
+        contact set took 183 k entries and exits for a net change of 41 k
+        nodes; 49 k nodes changed twice or more, and from the third step on
+        98–100 % of the nodes entering had left before. Nodes entering for the first
         time are not held: from a cold start the set must grow (holding
         every entering node every other iteration took the stability map's
         64² / 128² cold solves from 293 / 376 to 336 / 448 fine
@@ -246,9 +246,11 @@ class CGSettings:
         full contact 256² / 512² / 1024² / 2048² 18 / 23 / 32 / 44 → 18 /
         22 / 29 / 37; the large-grid scene 256² to 4096² 14 / 14 / 17 / 23
         / 31 → 14 / 15 / 17 / 21 / 31 (coarse at 4096² 16 → 14); the stability map 2108 →
-        2082, 120 / 120, per cell 0.72–1.20, at 1024² 597 → 561. A step
-        scaled by 0.99 or 1.01 moves these counts by at most 2
-        (docs/solver-cost.md, "Nodes that leave and come back").
+        2082, 120 / 120, per cell 0.72–1.20, at 1024² 597 → 561. The step
+        scaled by 0.99 or 1.01 where the set changed moved the counts by at
+        most 1 (near full
+        contact at 1024² and 2048², the scene at 4096²; docs/solver-cost.md,
+        "Nodes that leave and come back").
     """
 
     tol: float = 1e-8

@@ -238,19 +238,18 @@ class CGSettings:
         it moves: near full contact at 1024² (Δ = 2.5, 1 E*) the fine level's
         contact set took 183 k entries and exits for a net change of 41 k
         nodes; 49 k nodes changed twice or more, and from the third step on
-        98–100 % of the nodes entering had left before. Nodes entering for the first
-        time are not held: from a cold start the set must grow (holding
-        every entering node every other iteration took the stability map's
-        64² / 128² cold solves from 293 / 376 to 336 / 448 fine
-        iterations). Fine iterations (coarse in brackets), off → on: near
-        full contact 256² / 512² / 1024² / 2048² 18 / 23 / 32 / 44 → 18 /
-        22 / 29 / 37; the large-grid scene 256² to 4096² 14 / 14 / 17 / 23
-        / 31 → 14 / 15 / 17 / 21 / 31 (coarse at 4096² 16 → 14); the stability map 2108 →
+        98–100 % of the nodes entering had left before. Nodes entering for
+        the first time are not held: from a cold start the set must grow
+        (holding every entering node every other iteration took the
+        stability map's 64² / 128² cold solves from 293 / 376 to 336 / 448
+        fine iterations). Fine iterations, off → on: near full contact 256²
+        / 512² / 1024² / 2048² 18 / 23 / 32 / 44 → 18 / 22 / 29 / 37; the
+        large-grid scene 256² to 4096² 14 / 14 / 17 / 23 / 31 → 14 / 15 /
+        17 / 21 / 31 (coarse at 4096² 16 → 14); the stability map 2108 →
         2082, 120 / 120, per cell 0.72–1.20, at 1024² 597 → 561. The step
         scaled by 0.99 or 1.01 where the set changed moved the counts by at
-        most 1 (near full
-        contact at 1024² and 2048², the scene at 4096²; docs/solver-cost.md,
-        "Nodes that leave and come back").
+        most 1 (near full contact at 1024² and 2048², the scene at 4096²;
+        docs/solver-cost.md, "Nodes that leave and come back").
     """
 
     tol: float = 1e-8
@@ -456,10 +455,12 @@ class ConstrainedCGSolver(NormalSolver):
         at_floor = False                               # H p taken exactly at SINGLE_FLOOR (mixed precision)
         for iteration in range(1, settings.max_iterations + 1):
             restarts.clear()
-            if left is not None:                       # in_contact is still the last step's set
-                np.greater(in_contact, np.greater(forces, 0.0, out=changed), out=changed)
-                left |= changed                        # in the set before the step, not after it
-            np.greater(forces, 0.0, out=in_contact)
+            # the set now, into the scratch mask: in_contact still holds the last step's set, and
+            # the nodes in it but not in this one left (``alternate_return``); then the two swap
+            np.greater(forces, 0.0, out=changed)
+            if left is not None:
+                left |= np.greater(in_contact, changed, out=in_contact)
+            in_contact, changed = changed, in_contact
             contact = np.flatnonzero(in_contact)
             np.subtract(displacement, w, out=lifted)
             on_contact = lifted[contact]

@@ -40,14 +40,18 @@ EDGE_CAP · C⁻¹_ii)) at several shares; its weights cost one periodic
 product per set. Rows ``modes-<name>`` (``--parts modes``): the solver's
 whole preconditioner (edge correction and hole charge) and variants of its
 diagonal, and where the solver's top and bottom modes live (:func:`mode_rows`).
+Rows ``solver`` and ``solver-block<b>`` (``--parts solver``): that whole
+preconditioner, plainly and deflated by the blocks (:func:`solver_rows`):
+what deflation would take off the solver's settled rate.
 
     python -m benchmarks.bench_deflation [--sizes 256 512 1024 2048] [--max-vectors 120]
-        [--scenes scene full] [--parts deflation spectrum edge schur period modes]
+        [--scenes scene full] [--parts deflation spectrum edge schur period modes solver]
         [--output results/bench_deflation.json]
 """
 from __future__ import annotations
 
 import argparse
+import time
 
 import numpy as np
 
@@ -66,8 +70,8 @@ from benchmarks.common import (
 
 TOL = 1e-8
 #: the row groups: deflated PCG (``none``, ``poly``, ``block``), ``spectrum``, ``edge``, ``schur``, ``period``,
-#: ``modes``
-PARTS = ("deflation", "spectrum", "edge", "schur", "period", "modes")
+#: ``modes``, ``solver``
+PARTS = ("deflation", "spectrum", "edge", "schur", "period", "modes", "solver")
 #: the ``period`` rows' frame: nodes within this many of the grid's edges
 FRAME = 8
 #: the ``modes`` rows' classes of islands by their nodes: (label, more than, at most)
@@ -100,7 +104,9 @@ def pcg(apply, precondition, rhs, deflation=None, limit: int = 1000) -> int:
     return limit
 
 
-def coarse_spaces(nodes: np.ndarray, n: int, blocks: list[int]) -> dict[str, np.ndarray]:
+def coarse_spaces(nodes: np.ndarray, n: int, blocks: list[int], limit: int) -> dict[str, np.ndarray]:
+    """The polynomial spaces and the block spaces of at most ``limit`` vectors (larger ones are not made:
+    near full contact at 1024² the blocks of 16 would take 28 GiB)."""
     x, y = (nodes[:, 0] - n / 2) / n, (nodes[:, 1] - n / 2) / n
     one = np.ones_like(x)
     spaces = {"poly1": np.stack([one, x, y], axis=1),
@@ -109,6 +115,8 @@ def coarse_spaces(nodes: np.ndarray, n: int, blocks: list[int]) -> dict[str, np.
         count = -(-n // b)
         block = (nodes[:, 0] // b) * count + nodes[:, 1] // b
         used, column = np.unique(block, return_inverse=True)
+        if used.size > limit:
+            continue
         z = np.zeros((nodes.shape[0], used.size))
         z[np.arange(nodes.shape[0]), column] = 1.0
         spaces[f"block{b}"] = z
@@ -148,9 +156,7 @@ def scene_rows(comm, scene: str, n: int, args) -> list[dict]:
     if "deflation" in parts:
         emit(comm, rows, {**base, "space": "none", "vectors": 0, "iterations": pcg(apply, precondition, rhs)})
         blocks = [b for b in (n // 4, n // 8, n // 16, n // 32) if b >= 8]
-        for name, basis in coarse_spaces(problem.nodes[contact], n, blocks).items():
-            if basis.shape[1] > args.max_vectors:
-                continue
+        for name, basis in coarse_spaces(problem.nodes[contact], n, blocks, args.max_vectors).items():
             az = np.stack([apply(basis[:, k]) for k in range(basis.shape[1])], axis=1)
             inverse = np.linalg.inv(basis.T @ az)
             emit(comm, rows, {**base, "space": name, "vectors": int(basis.shape[1]),
@@ -180,6 +186,9 @@ def scene_rows(comm, scene: str, n: int, args) -> list[dict]:
             emit(comm, rows, {**base, **row})
     if "modes" in parts:
         for row in mode_rows(problem, apply, contact, result.contact, rhs):
+            emit(comm, rows, {**base, **row})
+    if "solver" in parts:
+        for row in solver_rows(problem, apply, contact, result.contact, rhs, n, args.max_vectors):
             emit(comm, rows, {**base, **row})
     problem.destroy()
     return rows
@@ -227,7 +236,6 @@ def mode_rows(problem, apply, contact: np.ndarray, in_contact: np.ndarray, rhs: 
     """
     from scipy import ndimage
 
-    from roughcontact.operators.holes import HoleCharge
     from roughcontact.operators.preconditioner import EDGE_SHARE
 
     flexibility = problem.flexibility
@@ -265,15 +273,12 @@ def mode_rows(problem, apply, contact: np.ndarray, in_contact: np.ndarray, rhs: 
         "boundary-laplacian": (0.9 * capped, capped, 0.1),
     }
     for name, (edge, whole, laplace) in variants.items():
-        holes = HoleCharge(flexibility.layout, problem.comm, EDGE_SHARE)
-        holes.relabel(members)
-        holes.update(contact, (whole - edge) * EDGE_SHARE / (1.0 - EDGE_SHARE))    # r = whole − e
+        charged = charged_preconditioner(problem, contact, members, edge, whole)
 
-        def preconditioned(values, edge=edge, laplace=laplace, holes=holes):
-            z = flexibility.precondition_nodes(values, contact, edge=edge)
+        def preconditioned(values, charged=charged, laplace=laplace):
+            z = charged(values)
             if laplace:
                 z += laplace * laplacian(values)
-            holes.subtract(values, z)
             return z
 
         ritz = lanczos_ritz(apply, preconditioned, np.random.default_rng(1).standard_normal(contact.size), 60)
@@ -294,6 +299,57 @@ def mode_rows(problem, apply, contact: np.ndarray, in_contact: np.ndarray, rhs: 
             row["nodes_by_island"] = {label: float(np.mean((island > lo) & (island <= hi)))
                                       for label, lo, hi in ISLAND_SIZES}
         yield row
+
+
+def charged_preconditioner(problem, contact: np.ndarray, members: np.ndarray, edge: np.ndarray, whole: np.ndarray):
+    """The Fourier preconditioner on the fixed set ``contact`` (``members`` its mask) less the edge
+    weights ``edge``, with the hole charge of the rest of the capped κ, ``whole`` − ``edge`` (the
+    solver's on a settled set where ``edge`` is EDGE_SHARE · ``whole``)."""
+    from roughcontact.operators.holes import HoleCharge
+    from roughcontact.operators.preconditioner import EDGE_SHARE
+
+    flexibility = problem.flexibility
+    holes = HoleCharge(flexibility.layout, problem.comm, EDGE_SHARE)
+    holes.relabel(members)
+    holes.update(contact, (whole - edge) * EDGE_SHARE / (1.0 - EDGE_SHARE))    # r = whole − e
+
+    def preconditioned(values):
+        z = flexibility.precondition_nodes(values, contact, edge=edge)
+        holes.subtract(values, z)
+        return z
+
+    return preconditioned
+
+
+def solver_rows(problem, apply, contact: np.ndarray, in_contact: np.ndarray, rhs: np.ndarray, n: int,
+                limit: int):
+    """Rows ``solver`` and ``solver-block<b>``: fixed-set PCG with the solver's whole preconditioner
+    (edge correction and hole charge), plainly and deflated by the block spaces of at most ``limit``
+    vectors (exact A Z, its seconds in double), and the same spaces added to the preconditioner
+    instead (M + Z E⁻¹ Zᵀ, ``additive_iterations``). One rank."""
+    from roughcontact.operators.preconditioner import EDGE_SHARE
+
+    pc = problem.flexibility.preconditioner
+    sums = pc.convolution.restricted(1.0, pc.layout.positions[contact]).astype(float)   # (C⁻¹ 1_S) on S
+    capped = pc.weights_from_sums(sums, share=1.0)
+    solver = charged_preconditioner(problem, contact, in_contact.reshape(-1), EDGE_SHARE * capped, capped)
+    yield {"space": "solver", "vectors": 0, "iterations": pcg(apply, solver, rhs)}
+    blocks = [b for b in (n // 4, n // 8, n // 16, n // 32) if b >= 8]
+    for name, basis in coarse_spaces(problem.nodes[contact], n, blocks, limit).items():
+        if not name.startswith("block"):
+            continue
+        start = time.perf_counter()
+        az = np.stack([apply(basis[:, k]) for k in range(basis.shape[1])], axis=1)
+        seconds = time.perf_counter() - start
+        inverse = np.linalg.inv(basis.T @ az)
+
+        def additive(values, basis=basis, inverse=inverse):
+            return solver(values) + basis @ (inverse @ (basis.T @ values))
+
+        yield {"space": f"solver-{name}", "vectors": int(basis.shape[1]), "az_seconds": seconds,
+               "iterations": pcg(apply, solver, rhs, (basis, az, inverse)),
+               "additive_iterations": pcg(apply, additive, rhs)}
+        del az
 
 
 def lanczos_ritz(apply, precondition, rhs, steps: int) -> np.ndarray:

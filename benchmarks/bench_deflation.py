@@ -104,9 +104,11 @@ def pcg(apply, precondition, rhs, deflation=None, limit: int = 1000) -> int:
     return limit
 
 
-def coarse_spaces(nodes: np.ndarray, n: int, blocks: list[int], limit: int) -> dict[str, np.ndarray]:
-    """The polynomial spaces and the block spaces of at most ``limit`` vectors (larger ones are not made:
-    near full contact at 1024² the blocks of 16 would take 28 GiB)."""
+def coarse_spaces(nodes: np.ndarray, n: int, limit: int) -> dict[str, np.ndarray]:
+    """The polynomial spaces and the spaces of the blocks of n/4, n/8, n/16 and n/32 (at least 8) that
+    hold at most ``limit`` vectors (larger ones are not made: near full contact at 1024² the blocks of
+    16 would take 28 GiB)."""
+    blocks = [b for b in (n // 4, n // 8, n // 16, n // 32) if b >= 8]
     x, y = (nodes[:, 0] - n / 2) / n, (nodes[:, 1] - n / 2) / n
     one = np.ones_like(x)
     spaces = {"poly1": np.stack([one, x, y], axis=1),
@@ -155,8 +157,7 @@ def scene_rows(comm, scene: str, n: int, args) -> list[dict]:
     parts = set(args.parts)
     if "deflation" in parts:
         emit(comm, rows, {**base, "space": "none", "vectors": 0, "iterations": pcg(apply, precondition, rhs)})
-        blocks = [b for b in (n // 4, n // 8, n // 16, n // 32) if b >= 8]
-        for name, basis in coarse_spaces(problem.nodes[contact], n, blocks, args.max_vectors).items():
+        for name, basis in coarse_spaces(problem.nodes[contact], n, args.max_vectors).items():
             az = np.stack([apply(basis[:, k]) for k in range(basis.shape[1])], axis=1)
             inverse = np.linalg.inv(basis.T @ az)
             emit(comm, rows, {**base, "space": name, "vectors": int(basis.shape[1]),
@@ -243,9 +244,8 @@ def mode_rows(problem, apply, contact: np.ndarray, in_contact: np.ndarray, rhs: 
     shape = in_contact.shape
     grid = in_contact.astype(float)
     members = in_contact.reshape(-1)
-    sums = pc.convolution.restricted(1.0, pc.layout.positions[contact]).astype(float)   # (C⁻¹ 1_S) on S
+    sums, capped = edge_terms(pc, contact)
     kappa = np.maximum(sums - pc.inverse_row_sum, 0.0)
-    capped = pc.weights_from_sums(sums, share=1.0)     # min(κ, EDGE_CAP · C⁻¹_ii), the solver's
     square = np.rint(ndimage.uniform_filter(grid, size=3, mode="constant") * 9).reshape(-1)[contact]
     labels, _ = ndimage.label(in_contact)
     island = np.bincount(labels.ravel())[labels.reshape(-1)[contact]]
@@ -301,6 +301,13 @@ def mode_rows(problem, apply, contact: np.ndarray, in_contact: np.ndarray, rhs: 
         yield row
 
 
+def edge_terms(pc, contact: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """((C⁻¹ 1_S) on S, the capped κ = min(max(κ, 0), EDGE_CAP · C⁻¹_ii) the solver's edge weights take
+    their share of) for the fixed set ``contact``."""
+    sums = pc.convolution.restricted(1.0, pc.layout.positions[contact]).astype(float)
+    return sums, pc.weights_from_sums(sums, share=1.0)
+
+
 def charged_preconditioner(problem, contact: np.ndarray, members: np.ndarray, edge: np.ndarray, whole: np.ndarray):
     """The Fourier preconditioner on the fixed set ``contact`` (``members`` its mask) less the edge
     weights ``edge``, with the hole charge of the rest of the capped κ, ``whole`` − ``edge`` (the
@@ -329,13 +336,10 @@ def solver_rows(problem, apply, contact: np.ndarray, in_contact: np.ndarray, rhs
     instead (M + Z E⁻¹ Zᵀ, ``additive_iterations``). One rank."""
     from roughcontact.operators.preconditioner import EDGE_SHARE
 
-    pc = problem.flexibility.preconditioner
-    sums = pc.convolution.restricted(1.0, pc.layout.positions[contact]).astype(float)   # (C⁻¹ 1_S) on S
-    capped = pc.weights_from_sums(sums, share=1.0)
+    _, capped = edge_terms(problem.flexibility.preconditioner, contact)
     solver = charged_preconditioner(problem, contact, in_contact.reshape(-1), EDGE_SHARE * capped, capped)
     yield {"space": "solver", "vectors": 0, "iterations": pcg(apply, solver, rhs)}
-    blocks = [b for b in (n // 4, n // 8, n // 16, n // 32) if b >= 8]
-    for name, basis in coarse_spaces(problem.nodes[contact], n, blocks, limit).items():
+    for name, basis in coarse_spaces(problem.nodes[contact], n, limit).items():
         if not name.startswith("block"):
             continue
         start = time.perf_counter()

@@ -42,10 +42,13 @@ whole preconditioner (edge correction and hole charge) and variants of its
 diagonal, and where the solver's top and bottom modes live (:func:`mode_rows`).
 Rows ``solver`` and ``solver-block<b>`` (``--parts solver``): that whole
 preconditioner, plainly and deflated by the blocks (:func:`solver_rows`):
-what deflation would take off the solver's settled rate.
+what deflation would take off the solver's settled rate. Rows ``twolevel-block<b>``
+(``--parts twolevel``): the same blocks in the balancing form around that
+preconditioner, with W = H Z exact and from the cheap products of
+:mod:`benchmarks.two_level` (:func:`twolevel_rows`).
 
     python -m benchmarks.bench_deflation [--sizes 256 512 1024 2048] [--max-vectors 120]
-        [--scenes scene full] [--parts deflation spectrum edge schur period modes solver]
+        [--scenes scene full] [--parts deflation spectrum edge schur period modes solver twolevel]
         [--output results/bench_deflation.json]
 """
 from __future__ import annotations
@@ -70,14 +73,16 @@ from benchmarks.common import (
 
 TOL = 1e-8
 #: the row groups: deflated PCG (``none``, ``poly``, ``block``), ``spectrum``, ``edge``, ``schur``, ``period``,
-#: ``modes``, ``solver``
-PARTS = ("deflation", "spectrum", "edge", "schur", "period", "modes", "solver")
+#: ``modes``, ``solver``, ``twolevel``
+PARTS = ("deflation", "spectrum", "edge", "schur", "period", "modes", "solver", "twolevel")
 #: the ``period`` rows' frame: nodes within this many of the grid's edges
 FRAME = 8
 #: the ``modes`` rows' classes of islands by their nodes: (label, more than, at most)
 ISLAND_SIZES = (("<=16", 0, 16), ("17-256", 16, 256), (">256", 256, np.inf))
 #: the shares of the edge term the ``edge<share>`` rows remove (at the package's cap)
 EDGE_SHARES = (0.5, 0.7, 0.8, 0.9)
+#: the ``twolevel`` rows' cheap H Z: the coarse grid's factor and the near field's radius (nodes)
+CHEAP_FACTOR, CHEAP_RADIUS = 8, 4
 
 
 def pcg(apply, precondition, rhs, deflation=None, limit: int = 1000) -> int:
@@ -158,7 +163,7 @@ def scene_rows(comm, scene: str, n: int, args) -> list[dict]:
     if "deflation" in parts:
         emit(comm, rows, {**base, "space": "none", "vectors": 0, "iterations": pcg(apply, precondition, rhs)})
         for name, basis in coarse_spaces(problem.nodes[contact], n, args.max_vectors).items():
-            az = np.stack([apply(basis[:, k]) for k in range(basis.shape[1])], axis=1)
+            az, _ = column_products(apply, basis)
             inverse = np.linalg.inv(basis.T @ az)
             emit(comm, rows, {**base, "space": name, "vectors": int(basis.shape[1]),
                               "iterations": pcg(apply, precondition, rhs, (basis, az, inverse))})
@@ -190,6 +195,9 @@ def scene_rows(comm, scene: str, n: int, args) -> list[dict]:
             emit(comm, rows, {**base, **row})
     if "solver" in parts:
         for row in solver_rows(problem, apply, contact, result.contact, rhs, n, args.max_vectors):
+            emit(comm, rows, {**base, **row})
+    if "twolevel" in parts:
+        for row in twolevel_rows(problem, topography, apply, contact, result.contact, rhs, n, args.max_vectors):
             emit(comm, rows, {**base, **row})
     problem.destroy()
     return rows
@@ -328,23 +336,37 @@ def charged_preconditioner(problem, contact: np.ndarray, members: np.ndarray, ed
     return preconditioned
 
 
+def solver_preconditioner(problem, contact: np.ndarray, in_contact: np.ndarray):
+    """The solver's whole preconditioner on the settled set ``contact`` (edge correction at
+    EDGE_SHARE and the hole charge of the rest)."""
+    from roughcontact.operators.preconditioner import EDGE_SHARE
+
+    _, capped = edge_terms(problem.flexibility.preconditioner, contact)
+    return charged_preconditioner(problem, contact, in_contact.reshape(-1), EDGE_SHARE * capped, capped)
+
+
+def block_spaces(nodes: np.ndarray, n: int, limit: int) -> dict[str, np.ndarray]:
+    """The ``block<b>`` spaces of :func:`coarse_spaces`."""
+    return {name: basis for name, basis in coarse_spaces(nodes, n, limit).items() if name.startswith("block")}
+
+
+def column_products(apply, basis: np.ndarray) -> tuple[np.ndarray, float]:
+    """(``apply`` of each column of Z = ``basis``, side by side; its seconds)."""
+    start = time.perf_counter()
+    az = np.stack([apply(basis[:, k]) for k in range(basis.shape[1])], axis=1)
+    return az, time.perf_counter() - start
+
+
 def solver_rows(problem, apply, contact: np.ndarray, in_contact: np.ndarray, rhs: np.ndarray, n: int,
                 limit: int):
     """Rows ``solver`` and ``solver-block<b>``: fixed-set PCG with the solver's whole preconditioner
     (edge correction and hole charge), plainly and deflated by the block spaces of at most ``limit``
     vectors (exact A Z, its seconds in double), and the same spaces added to the preconditioner
     instead (M + Z E⁻¹ Zᵀ, ``additive_iterations``). One rank."""
-    from roughcontact.operators.preconditioner import EDGE_SHARE
-
-    _, capped = edge_terms(problem.flexibility.preconditioner, contact)
-    solver = charged_preconditioner(problem, contact, in_contact.reshape(-1), EDGE_SHARE * capped, capped)
+    solver = solver_preconditioner(problem, contact, in_contact)
     yield {"space": "solver", "vectors": 0, "iterations": pcg(apply, solver, rhs)}
-    for name, basis in coarse_spaces(problem.nodes[contact], n, limit).items():
-        if not name.startswith("block"):
-            continue
-        start = time.perf_counter()
-        az = np.stack([apply(basis[:, k]) for k in range(basis.shape[1])], axis=1)
-        seconds = time.perf_counter() - start
+    for name, basis in block_spaces(problem.nodes[contact], n, limit).items():
+        az, seconds = column_products(apply, basis)
         inverse = np.linalg.inv(basis.T @ az)
 
         def additive(values, basis=basis, inverse=inverse):
@@ -354,6 +376,34 @@ def solver_rows(problem, apply, contact: np.ndarray, in_contact: np.ndarray, rhs
                "iterations": pcg(apply, solver, rhs, (basis, az, inverse)),
                "additive_iterations": pcg(apply, additive, rhs)}
         del az
+
+
+def twolevel_rows(problem, topography, apply, contact: np.ndarray, in_contact: np.ndarray, rhs: np.ndarray,
+                  n: int, limit: int):
+    """Rows ``twolevel-block<b>`` (:mod:`benchmarks.two_level`): fixed-set PCG with the balancing
+    preconditioner around the solver's whole preconditioner, Z the block spaces of at most
+    ``limit`` vectors; W = H Z exact (``iterations``, ``az_seconds``) and from
+    :class:`~benchmarks.two_level.CheapProducts` at CHEAP_FACTOR and CHEAP_RADIUS
+    (``cheap_iterations``, ``cheap_seconds``; ``cheap_error`` = ‖W̃ − W‖ / ‖W‖, Frobenius;
+    ``cheap_setup_seconds``: its coarse operator and stencils, once per set). The ``solver`` row
+    (``--parts solver``) is the same PCG without the coarse level. One rank."""
+    from benchmarks.two_level import CheapProducts, balancing
+
+    solver = solver_preconditioner(problem, contact, in_contact)
+    start = time.perf_counter()
+    cheap = CheapProducts(problem, topography, contact, CHEAP_FACTOR, CHEAP_RADIUS)
+    setup = time.perf_counter() - start
+    for name, basis in block_spaces(problem.nodes[contact], n, limit).items():
+        az, seconds = column_products(apply, basis)
+        approximate, cheap_seconds = column_products(cheap.product, basis)
+        yield {"space": f"twolevel-{name}", "vectors": int(basis.shape[1]), "az_seconds": seconds,
+               "iterations": pcg(apply, balancing(solver, basis, az), rhs),
+               "cheap_factor": CHEAP_FACTOR, "cheap_radius": CHEAP_RADIUS, "cheap_setup_seconds": setup,
+               "cheap_seconds": cheap_seconds,
+               "cheap_error": float(np.linalg.norm(approximate - az) / np.linalg.norm(az)),
+               "cheap_iterations": pcg(apply, balancing(solver, basis, approximate), rhs)}
+        del az, approximate
+    cheap.destroy()
 
 
 def lanczos_ritz(apply, precondition, rhs, steps: int) -> np.ndarray:

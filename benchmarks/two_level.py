@@ -59,6 +59,8 @@ class CheapProducts:
     def __init__(self, problem, topography, contact: np.ndarray, factor: int, radius: int):
         self.factor, self.radius = factor, radius
         nx, ny = topography.shape
+        if problem.size != nx * ny or problem.comm.size != 1:
+            raise ValueError("CheapProducts needs one rank and a footprint that is the whole grid")
         self.shape = (nx, ny)
         coarse_topography = coarsen(topography, factor, "decimate")
         self.coarse = NormalProblem(coarse_topography, problem.interface, problem.comm, operator="fft")

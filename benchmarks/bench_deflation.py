@@ -45,7 +45,8 @@ preconditioner, plainly and deflated by the blocks (:func:`solver_rows`):
 what deflation would take off the solver's settled rate. Rows ``twolevel-block<b>``
 (``--parts twolevel``): the same blocks in the balancing form around that
 preconditioner, with W = H Z exact and from the cheap products of
-:mod:`benchmarks.two_level` (:func:`twolevel_rows`).
+:mod:`benchmarks.two_level` (:func:`solver_rows` too: both take each space's
+exact A Z from one set of products).
 
     python -m benchmarks.bench_deflation [--sizes 256 512 1024 2048] [--max-vectors 120]
         [--scenes scene full] [--parts deflation spectrum edge schur period modes solver twolevel]
@@ -193,11 +194,9 @@ def scene_rows(comm, scene: str, n: int, args) -> list[dict]:
     if "modes" in parts:
         for row in mode_rows(problem, apply, contact, result.contact, rhs):
             emit(comm, rows, {**base, **row})
-    if "solver" in parts:
-        for row in solver_rows(problem, apply, contact, result.contact, rhs, n, args.max_vectors):
-            emit(comm, rows, {**base, **row})
-    if "twolevel" in parts:
-        for row in twolevel_rows(problem, topography, apply, contact, result.contact, rhs, n, args.max_vectors):
+    if parts & {"solver", "twolevel"}:
+        for row in solver_rows(problem, topography, apply, contact, result.contact, rhs, n, args.max_vectors,
+                               parts):
             emit(comm, rows, {**base, **row})
     problem.destroy()
     return rows
@@ -357,53 +356,53 @@ def column_products(apply, basis: np.ndarray) -> tuple[np.ndarray, float]:
     return az, time.perf_counter() - start
 
 
-def solver_rows(problem, apply, contact: np.ndarray, in_contact: np.ndarray, rhs: np.ndarray, n: int,
-                limit: int):
-    """Rows ``solver`` and ``solver-block<b>``: fixed-set PCG with the solver's whole preconditioner
-    (edge correction and hole charge), plainly and deflated by the block spaces of at most ``limit``
-    vectors (exact A Z, its seconds in double), and the same spaces added to the preconditioner
-    instead (M + Z E⁻¹ Zᵀ, ``additive_iterations``). One rank."""
-    solver = solver_preconditioner(problem, contact, in_contact)
-    yield {"space": "solver", "vectors": 0, "iterations": pcg(apply, solver, rhs)}
-    for name, basis in block_spaces(problem.nodes[contact], n, limit).items():
-        az, seconds = column_products(apply, basis)
-        inverse = np.linalg.inv(basis.T @ az)
+def solver_rows(problem, topography, apply, contact: np.ndarray, in_contact: np.ndarray, rhs: np.ndarray,
+                n: int, limit: int, parts: set[str]):
+    """Fixed-set PCG with the solver's whole preconditioner (edge correction and hole charge) and
+    the block spaces of at most ``limit`` vectors, whose exact A Z (its seconds in double,
+    ``az_seconds``) both row groups share, made once per space.
 
-        def additive(values, basis=basis, inverse=inverse):
-            return solver(values) + basis @ (inverse @ (basis.T @ values))
-
-        yield {"space": f"solver-{name}", "vectors": int(basis.shape[1]), "az_seconds": seconds,
-               "iterations": pcg(apply, solver, rhs, (basis, az, inverse)),
-               "additive_iterations": pcg(apply, additive, rhs)}
-        del az
-
-
-def twolevel_rows(problem, topography, apply, contact: np.ndarray, in_contact: np.ndarray, rhs: np.ndarray,
-                  n: int, limit: int):
-    """Rows ``twolevel-block<b>`` (:mod:`benchmarks.two_level`): fixed-set PCG with the balancing
-    preconditioner around the solver's whole preconditioner, Z the block spaces of at most
-    ``limit`` vectors; W = H Z exact (``iterations``, ``az_seconds``) and from
-    :class:`~benchmarks.two_level.CheapProducts` at CHEAP_FACTOR and CHEAP_RADIUS
-    (``cheap_iterations``, ``cheap_seconds``; ``cheap_error`` = ‖W̃ − W‖ / ‖W‖, Frobenius;
-    ``cheap_setup_seconds``: its coarse operator and stencils, once per set). The ``solver`` row
-    (``--parts solver``) is the same PCG without the coarse level. One rank."""
+    ``solver`` in ``parts``: rows ``solver`` (plainly) and ``solver-block<b>`` (deflated by the
+    blocks, and the same spaces added to the preconditioner instead, M + Z E⁻¹ Zᵀ,
+    ``additive_iterations``). ``twolevel`` in ``parts``: rows ``twolevel-block<b>``
+    (:mod:`benchmarks.two_level`), the balancing preconditioner around the solver's with
+    W = H Z exact (``iterations``) and from :class:`~benchmarks.two_level.CheapProducts` at
+    CHEAP_FACTOR and CHEAP_RADIUS (``cheap_iterations``, ``cheap_seconds``; ``cheap_error`` =
+    ‖W̃ − W‖ / ‖W‖, Frobenius; ``cheap_setup_seconds``: its coarse operator, stencils and lookup,
+    once per set). One rank."""
     from benchmarks.two_level import CheapProducts, balancing
 
     solver = solver_preconditioner(problem, contact, in_contact)
-    start = time.perf_counter()
-    cheap = CheapProducts(problem, topography, contact, CHEAP_FACTOR, CHEAP_RADIUS)
-    setup = time.perf_counter() - start
+    if "solver" in parts:
+        yield {"space": "solver", "vectors": 0, "iterations": pcg(apply, solver, rhs)}
+    cheap = None
+    if "twolevel" in parts:
+        start = time.perf_counter()
+        cheap = CheapProducts(problem, topography, contact, CHEAP_FACTOR, CHEAP_RADIUS)
+        setup = time.perf_counter() - start
     for name, basis in block_spaces(problem.nodes[contact], n, limit).items():
         az, seconds = column_products(apply, basis)
-        approximate, cheap_seconds = column_products(cheap.product, basis)
-        yield {"space": f"twolevel-{name}", "vectors": int(basis.shape[1]), "az_seconds": seconds,
-               "iterations": pcg(apply, balancing(solver, basis, az), rhs),
-               "cheap_factor": CHEAP_FACTOR, "cheap_radius": CHEAP_RADIUS, "cheap_setup_seconds": setup,
-               "cheap_seconds": cheap_seconds,
-               "cheap_error": float(np.linalg.norm(approximate - az) / np.linalg.norm(az)),
-               "cheap_iterations": pcg(apply, balancing(solver, basis, approximate), rhs)}
-        del az, approximate
-    cheap.destroy()
+        if "solver" in parts:
+            inverse = np.linalg.inv(basis.T @ az)
+
+            def additive(values, basis=basis, inverse=inverse):
+                return solver(values) + basis @ (inverse @ (basis.T @ values))
+
+            yield {"space": f"solver-{name}", "vectors": int(basis.shape[1]), "az_seconds": seconds,
+                   "iterations": pcg(apply, solver, rhs, (basis, az, inverse)),
+                   "additive_iterations": pcg(apply, additive, rhs)}
+        if cheap is not None:
+            approximate, cheap_seconds = column_products(cheap.product, basis)
+            yield {"space": f"twolevel-{name}", "vectors": int(basis.shape[1]), "az_seconds": seconds,
+                   "iterations": pcg(apply, balancing(solver, basis, az), rhs),
+                   "cheap_factor": CHEAP_FACTOR, "cheap_radius": CHEAP_RADIUS, "cheap_setup_seconds": setup,
+                   "cheap_seconds": cheap_seconds,
+                   "cheap_error": float(np.linalg.norm(approximate - az) / np.linalg.norm(az)),
+                   "cheap_iterations": pcg(apply, balancing(solver, basis, approximate), rhs)}
+            del approximate
+        del az
+    if cheap is not None:
+        cheap.destroy()
 
 
 def lanczos_ritz(apply, precondition, rhs, steps: int) -> np.ndarray:

@@ -61,7 +61,6 @@ class CheapProducts:
         nx, ny = topography.shape
         if problem.size != nx * ny or problem.comm.size != 1:
             raise ValueError("CheapProducts needs one rank and a footprint that is the whole grid")
-        self.shape = (nx, ny)
         coarse_topography = coarsen(topography, factor, "decimate")
         self.coarse = NormalProblem(coarse_topography, problem.interface, problem.comm, operator="fft")
         self.coarse_shape = coarse_topography.shape
@@ -81,10 +80,10 @@ class CheapProducts:
         f, r = self.factor, self.radius
         base = f * (r // f + 2)                         # a source cell far enough from the window's edge
         span = base + f + r + 2
-        fine = punch_kernel((2 * span, 2 * span), spacing, compliance)
-        coarse_kernel = punch_kernel((2 * span // f + 2, 2 * span // f + 2), f * spacing, compliance)
         cells = (2 * span // f + 2, 2 * span // f + 2)
+        coarse_kernel = punch_kernel(cells, f * spacing, compliance)
         offsets = np.arange(-r, r + 1)
+        exact = punch_kernel((r + 1, r + 1), spacing, compliance)[np.abs(offsets)[:, None], np.abs(offsets)]
         out = np.empty((f, f, 2 * r + 1, 2 * r + 1))
         for p in range(f):
             for q in range(f):
@@ -93,15 +92,15 @@ class CheapProducts:
                                    axis=-1).reshape(-1, 2)
                 s_corners, s_weights = bilinear(source, f, cells)
                 t_corners, t_weights = bilinear(targets, f, cells)
+                # (row, column) of each corner on the coarse grid: targets (4, m), the source (4, 1)
+                ti, tj = np.divmod(t_corners, cells[1])
+                si, sj = np.divmod(s_corners, cells[1])
                 approx = np.zeros(targets.shape[0])
                 for a in range(4):
-                    ta = np.divmod(t_corners[a], cells[1])
                     for b in range(4):
-                        sb = np.divmod(s_corners[b], cells[1])
-                        approx += t_weights[a] * s_weights[b, 0] * coarse_kernel[np.abs(ta[0] - sb[0][0]),
-                                                                                 np.abs(ta[1] - sb[1][0])]
-                exact = fine[np.abs(offsets)[:, None], np.abs(offsets)[None, :]].reshape(-1)
-                out[p, q] = (exact - approx).reshape(2 * r + 1, 2 * r + 1)
+                        approx += t_weights[a] * s_weights[b] * coarse_kernel[np.abs(ti[a] - si[b]),
+                                                                              np.abs(tj[a] - sj[b])]
+                out[p, q] = exact - approx.reshape(2 * r + 1, 2 * r + 1)
         return out
 
     def product(self, z: np.ndarray) -> np.ndarray:

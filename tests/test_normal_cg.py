@@ -173,6 +173,37 @@ def test_alternate_return_changes_the_path_not_the_state(comm, control, caplog):
     assert alternating.residual <= CGSettings().tol
 
 
+@pytest.mark.parametrize("control", ["load, rotation fixed", "closure"])
+def test_a_dense_free_set_takes_the_direction_field_whole(comm, control, monkeypatch):
+    """Where the free set holds more than one node in DENSE_WRITE, the search direction's product
+    is taken of the direction field itself (d on the set, zero elsewhere) instead of d scattered
+    at the set's positions: the same field, so the same transforms. Near full contact (160²)
+    the solve is bit for bit the one that always scatters (DENSE_WRITE 0), on any rank count;
+    it fails if the field held anything off the set."""
+    import roughcontact.normal.constrained_cg as constrained_cg
+
+    controls = {"load, rotation fixed": lambda s: s.solve_load(1.0, rotation=(0.0, 0.0)),
+                "closure": lambda s: s.solve_closure(1.06)}
+    problem = NormalProblem(rough(160, seed=2), FLAT, comm, operator="fft")
+    whole = []
+    product = NormalProblem.displacement
+
+    def counted(self, forces, single=False):
+        whole.append(forces.size)
+        return product(self, forces, single)
+
+    monkeypatch.setattr(NormalProblem, "displacement", counted)
+    dense = solve(problem, "cg", controls[control])
+    taken = len(whole)
+    monkeypatch.setattr(constrained_cg, "DENSE_WRITE", 0)
+    scattered = solve(problem, "cg", controls[control])
+    problem.destroy()
+    assert dense.contact_fraction > 0.8
+    assert taken > len(whole) - taken + dense.linear_iterations // 2   # the dense branch ran
+    assert dense.linear_iterations == scattered.linear_iterations
+    np.testing.assert_array_equal(dense.force, scattered.force)
+
+
 @pytest.mark.parametrize("value", [1, "yes", None])
 def test_bad_alternate_return_is_named(value):
     with pytest.raises(InputError, match="alternate_return"):

@@ -113,6 +113,23 @@ def test_product_of_a_sparse_field_equals_the_product_of_the_whole_field(comm, k
     fft.destroy()
 
 
+@pytest.mark.parametrize("footprint", ["square", "disc"])
+def test_slab_positions_are_each_nodes_row_and_column_on_the_slab(comm, footprint):
+    """layout.slab_positions(nodes) is (i − row_start) · ny + j for each node (i, j) of this rank
+    given by local index, on whole rows (where it returns the indices themselves) and on a disc's
+    footprint (where rows are partial); in the given order, repeated indices included."""
+    fft = Flexibility(topography(37, footprint), ROCK, comm, kind="fft")
+    layout = fft.layout
+    grid = layout.local_nodes().astype(np.int64)
+    expected = (grid[:, 0] - layout.rows[0]) * layout.shape[1] + grid[:, 1]
+    rng = np.random.default_rng(2)
+    for nodes in (np.arange(layout.local_size), np.flatnonzero(rng.random(layout.local_size) < 0.3),
+                  rng.integers(0, max(layout.local_size, 1), 17), np.zeros(0, dtype=np.intp)):
+        np.testing.assert_array_equal(layout.slab_positions(nodes), expected[nodes])
+    assert comm.allreduce(layout.whole_rows, op=MPI.LAND) == (footprint == "square")
+    fft.destroy()
+
+
 @pytest.mark.parametrize("kind", ["fft", "fft-periodic"])
 def test_the_restricted_product_is_the_whole_product_at_the_nodes(comm, kind):
     """restricted (R_S K R_Sᵀ, read off the product before its crop) equals the whole field's

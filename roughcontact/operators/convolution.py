@@ -298,7 +298,7 @@ class SlabConvolution:
             rows.reshape(-1)[last] = 0.0
         row = positions // ny
         if ly == ny:
-            index = positions
+            index = positions.copy()                     # kept to clear them: not the caller's array
         else:
             index = row * (ly - ny)
             index += positions

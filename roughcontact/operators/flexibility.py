@@ -162,7 +162,7 @@ class Flexibility:
             full = np.zeros(self.layout.local_size)
             full[nodes] = values
             return self.product(full, single)
-        return self._nodal(self.convolution.apply_at(values, self.layout.positions[nodes], single))
+        return self._nodal(self.convolution.apply_at(values, self.layout.slab_positions(nodes), single))
 
     def _nodal(self, result: np.ndarray) -> np.ndarray:
         """This rank's nodes of a product on its slab rows, float64, a new contiguous array."""

@@ -149,7 +149,7 @@ class HoleCharge:
         """The charge on the free set given by this rank's node indices and its edge weights
         ``edge`` (on the same nodes); collective."""
         ny = self.layout.shape[1]
-        positions = self.layout.positions[nodes]
+        positions = self.layout.slab_positions(nodes)
         # only the rims' nodes carry charge: near full contact at 2048² the blocks and scales of
         # every node of S took 59 ms an update and the block sums 27 ms a subtraction
         self.on_rim = np.flatnonzero(self.rim[positions])

@@ -90,6 +90,12 @@ class NodeLayout:
         """Flat slab position of each owned node."""
         return np.flatnonzero(self.local_mask)
 
+    def slab_positions(self, nodes: np.ndarray) -> np.ndarray:
+        """Flat slab positions of this rank's nodes ``nodes`` (local indices): ``nodes`` itself
+        where the rows are whole (the positions are then 0, 1, 2, …), instead of a gather that
+        took 8 ms an iteration, three times, near full contact at 2048²."""
+        return nodes if self.whole_rows else self.positions[nodes]
+
     def to_slab(self, values: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """This rank's rows of the grid with ``values`` (owned nodes) on the footprint, 0 elsewhere
         (a view of ``values`` when the rows are whole)."""

@@ -43,7 +43,7 @@ class NearField:
         self.comm = flexibility.comm
         self.shape = flexibility.shape
         self.rows = flexibility.layout.rows
-        self.positions = flexibility.layout.positions
+        self.slab_positions = flexibility.layout.slab_positions
         reach = self.radius + 1
         table = punch_kernel((reach + 1, reach), flexibility.spacing, flexibility.compliance)
         self.window = mirrored_kernel(table[:reach])                               # (2R + 1)²
@@ -65,7 +65,7 @@ class NearField:
         field = out.reshape(self.rows[1] - self.rows[0], ny)
         r0, r1 = self.rows
         reach, window = self.radius, self.window
-        for block in gathered_centres(self.comm, self.rows, ny, self.positions[nodes], forces):
+        for block in gathered_centres(self.comm, self.rows, ny, self.slab_positions(nodes), forces):
             for row, column, force in block:
                 row, column = int(row), int(column)
                 top, bottom = max(row - reach, r0), min(row + reach + 1, r1)

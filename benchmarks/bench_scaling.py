@@ -3,14 +3,16 @@
 
 The large-grid scene (benchmarks.common.scene_surface: Hurst 0.8, unit rms
 slope, mean pressure 0.01 E*, tolerance 1e-8, FFT operator, rotation fixed,
-the nested start) on an n × n grid. The driver makes the surface once and
+the nested start) on an n × n grid, or with ``--scenes full`` near full
+contact (fractal dimension 2.5 at 1 E*, about 86 % of the nodes in contact;
+benchmarks/bench_products.py's two scenes). The driver makes the surface once and
 writes it with ``write_topography``; on each rank count every rank reads
 only its own rows (``TopographyRows.read``) and the solve keeps its result by
 rows (``gather=False``), so no rank holds the whole grid and the wall time is
 the problem's set-up and solve alone.
 
     python -m benchmarks.bench_scaling --sizes 4096 --ranks 1 2 4 8 16 --bind-to core
-        [--repeats 1] [--output results/bench_scaling.json] [--profile DIR]
+        [--scenes scene full] [--repeats 1] [--output results/bench_scaling.json] [--profile DIR]
 
 Per size and rank count: wall time (median of ``--repeats``, set-up of the
 operator and every level of the start included), speed-up and parallel
@@ -56,8 +58,8 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.bench_products import PRESSURES, SHAPES
 from benchmarks.common import (
-    SCENE_PRESSURE,
     add_launch_arguments,
     emit,
     proc_status,
@@ -129,7 +131,7 @@ def worker(args) -> None:
             if profile is not None:
                 profile.enable()
             problem = scene_problem(topography, comm)
-            result = solve_scene(problem, SCENE_PRESSURE, gather=False)
+            result = solve_scene(problem, PRESSURES[args.scene], gather=False)
             threads = problem.flexibility.convolution.workers      # the FFT threads the operator used
             problem.destroy()
             if profile is not None:
@@ -138,7 +140,7 @@ def worker(args) -> None:
             times.append(time.perf_counter() - t0)
     if profile is not None:
         Path(args.profile).mkdir(parents=True, exist_ok=True)
-        profile.dump_stats(Path(args.profile) / f"n{n}_ranks{comm.Get_size()}_rank{comm.Get_rank()}.prof")
+        profile.dump_stats(Path(args.profile) / f"{args.scene}_n{n}_ranks{comm.Get_size()}_rank{comm.Get_rank()}.prof")
     per_rank = {name: comm.allgather(seconds / args.repeats) for name, seconds in spent.items()}
     split = {f"{name}_s": max(values) for name, values in per_rank.items()}     # the slowest rank's
     by_rank = {f"{name}_s_by_rank": values for name, values in per_rank.items()}
@@ -147,7 +149,7 @@ def worker(args) -> None:
     # along y of the rows it occupies, follow them, while the slabs hold equal rows
     contact_by_rank = comm.allgather(int(np.count_nonzero(force > 0)))
     emit(comm, rows, {
-        "n": n, "ranks": comm.Get_size(), "seconds": float(np.median(times)), "all_seconds": times,
+        "scene": args.scene, "n": n, "ranks": comm.Get_size(), "seconds": float(np.median(times)), "all_seconds": times,
         "repeats": args.repeats, "iterations": result.linear_iterations,
         "coarse_iterations": result.coarse_iterations, "residual": result.residual,
         "contact_fraction": result.contact_fraction,
@@ -182,10 +184,12 @@ def compare(rows: list[dict]) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[4096])
+    parser.add_argument("--scenes", nargs="+", choices=sorted(PRESSURES), default=["scene"])
     parser.add_argument("--surface", help=argparse.SUPPRESS)
+    parser.add_argument("--scene", default="scene", help=argparse.SUPPRESS)
     parser.add_argument("--profile", metavar="DIR",
                         help="each rank writes cProfile statistics of its solves to "
-                             "DIR/n<n>_ranks<ranks>_rank<rank>.prof")
+                             "DIR/<scene>_n<n>_ranks<ranks>_rank<rank>.prof")
     add_launch_arguments(parser, repeats=1, output="results/bench_scaling.json", binding=True)
     args = parser.parse_args()
     if args.worker:
@@ -193,27 +197,27 @@ def main() -> None:
         return
     from roughcontact.surfaces import write_topography
 
-    report = {"benchmark": "strong scaling of one normal solve (large-grid scene, surface and result by rows)",
+    report = {"benchmark": "strong scaling of one normal solve (surface and result by rows)",
               "machine": {"cpus": os.cpu_count()}, "bind_to": args.bind_to, "repeats": args.repeats,
               "invariant_rtol": INVARIANT_RTOL, "rows": []}
     profile = ["--profile", str(Path(args.profile).resolve())] if args.profile else []
     with tempfile.TemporaryDirectory() as tmp:
-        for n in args.sizes:
-            path = Path(tmp) / f"scene_{n}.nc"
+        for scene, n in ((scene, n) for scene in args.scenes for n in args.sizes):
+            path = Path(tmp) / f"{scene}_{n}.nc"
             t0 = time.perf_counter()
-            write_topography(scene_topography(n), path)
-            print(f"{n}²: surface made and written in {time.perf_counter() - t0:.1f} s", flush=True)
+            write_topography(scene_topography(n, **SHAPES[scene]), path)
+            print(f"{scene} {n}²: surface made and written in {time.perf_counter() - t0:.1f} s", flush=True)
             mine: list[dict] = []
             for ranks in args.ranks:
                 mine += run_on_ranks(__spec__.name, [ranks],
-                                     ["--surface", str(path), "--repeats", str(args.repeats), *profile],
-                                     bind_to=args.bind_to)
+                                     ["--surface", str(path), "--scene", scene, "--repeats", str(args.repeats),
+                                      *profile], bind_to=args.bind_to)
                 compare(mine)
-                report["rows"] = [r for r in report["rows"] if r["n"] != n] + mine
+                report["rows"] = [r for r in report["rows"] if (r["scene"], r["n"]) != (scene, n)] + mine
                 save_json(report, args.output)
             path.unlink()
     for row in report["rows"]:
-        print(f"{row['n']}² on {row['ranks']:2d} rank(s): {row['seconds']:7.2f} s"
+        print(f"{row['scene']} {row['n']}² on {row['ranks']:2d} rank(s): {row['seconds']:7.2f} s"
               + (f", speed-up {row['speedup']:5.2f}, efficiency {row['efficiency']:.2f}" if "speedup" in row else "")
               + f", {row['iterations']} fine iterations, {row['bytes_per_node_per_rank']:.0f} B/node per rank"
               + f", {row['fft_threads_per_rank']} FFT thread(s) per rank"

@@ -2,7 +2,9 @@
 """Per-rank memory of one normal solve on 1, 2, 4 … ranks, against 1/ranks and the estimate.
 
 The large-grid scene (benchmarks.common.scene_surface: Hurst 0.8, unit rms
-slope, mean pressure 0.01 E*, rotation fixed), the FFT operator and the
+slope, mean pressure 0.01 E*, rotation fixed), or with ``--scenes full`` near
+full contact (fractal dimension 2.5 at 1 E*, 86 % of the nodes in contact;
+benchmarks/bench_products.py's two scenes), the FFT operator and the
 constrained CG with its defaults (mixed precision, coarse-to-fine start).
 Each size runs in processes of its own; each rank makes the surface (the input a user hands to the solver, N
 heights and the footprint on every rank), then the high-water mark is reset
@@ -24,8 +26,8 @@ The solve keeps its result's fields on each rank's own rows (``gather=False``,
 :mod:`roughcontact.normal.fields`), as a run too large to replicate N values on every rank
 would; ``--gather`` measures the default, whole fields on every rank (25 B per node more).
 
-    python -m benchmarks.bench_memory [--sizes 1024 2048] [--ranks 1 2 4] [--gather] [--by-rows]
-        [--output results/bench_memory.json]
+    python -m benchmarks.bench_memory [--sizes 1024 2048] [--ranks 1 2 4] [--scenes scene full] [--gather]
+        [--by-rows] [--output results/bench_memory.json]
 """
 from __future__ import annotations
 
@@ -33,6 +35,7 @@ import argparse
 
 import numpy as np
 
+from benchmarks.bench_products import PRESSURES, SHAPES
 from benchmarks.common import (
     add_launch_arguments,
     emit,
@@ -70,11 +73,11 @@ def worker(args) -> None:
     for n in args.sizes:
         if args.by_rows:
             # rank 0 makes the surface and hands each rank its rows; the whole one is then dropped
-            whole = scene_topography(n) if comm.Get_rank() == 0 else None
+            whole = scene_topography(n, **SHAPES[args.scene]) if comm.Get_rank() == 0 else None
             topography = TopographyRows.scatter(whole, comm)
             del whole
         else:
-            topography = scene_topography(n)
+            topography = scene_topography(n, **SHAPES[args.scene])
         held = (topography.local_heights, topography.local_footprint) if args.by_rows else \
             (topography.heights, topography.footprint)
         topography_bytes = comm.allreduce(sum(a.nbytes for a in held), op=MPI.MAX)
@@ -85,13 +88,14 @@ def worker(args) -> None:
         base = proc_status("VmRSS")
         base_max = comm.allreduce(base, op=MPI.MAX)
         problem = scene_problem(topography, comm)
-        result = solve_scene(problem, gather=args.gather)
+        result = solve_scene(problem, PRESSURES[args.scene], gather=args.gather)
         problem.destroy()
         peak = comm.allreduce(proc_status("VmHWM") - base, op=MPI.MAX)
         held = comm.allreduce(proc_status("VmRSS") - base, op=MPI.MAX)
         nodes = n * n
         emit(comm, rows, {
-            "n": n, "ranks": comm.Get_size(), "peak_bytes_per_rank": peak, "peak_per_node": peak / nodes,
+            "scene": args.scene, "n": n, "ranks": comm.Get_size(), "contact_fraction": result.contact_fraction,
+            "peak_bytes_per_rank": peak, "peak_per_node": peak / nodes,
             "held_after_bytes_per_rank": held, "held_after_per_node": held / nodes,
             "estimate_bytes_per_rank": operator_memory("fft", nodes, comm.Get_size()),
             "peak_reset": bool(reset), "gathered": args.gather, "by_rows": args.by_rows,
@@ -101,10 +105,11 @@ def worker(args) -> None:
 
 
 def report(rows: list[dict]) -> dict:
-    """Per size: each rank count's peak against the one-rank peak / ranks, and the fit N (R + D/k)."""
+    """Per scene and size: each rank count's peak against the one-rank peak / ranks, and the fit
+    N (R + D/k)."""
     out = {}
-    for n in sorted({r["n"] for r in rows}):
-        mine = sorted((r for r in rows if r["n"] == n), key=lambda r: r["ranks"])
+    for scene, n in sorted({(r["scene"], r["n"]) for r in rows}):
+        mine = sorted((r for r in rows if (r["scene"], r["n"]) == (scene, n)), key=lambda r: r["ranks"])
         one = next((r["peak_per_node"] for r in mine if r["ranks"] == 1), None)
         entry = {"peak_per_node": {r["ranks"]: round(r["peak_per_node"], 1) for r in mine}}
         if one is not None:
@@ -115,8 +120,8 @@ def report(rows: list[dict]) -> dict:
             slope, intercept = np.polyfit(inverse, [r["peak_per_node"] for r in mine], 1)
             entry["replicated_per_node"] = round(float(intercept), 1)
             entry["distributed_per_node"] = round(float(slope), 1)
-        out[str(n)] = entry
-        print(n, entry)
+        out[f"{scene} {n}"] = entry
+        print(scene, n, entry)
     return out
 
 
@@ -125,6 +130,8 @@ def main() -> None:
     add_launch_arguments(parser, repeats=1, output="results/bench_memory.json")
     parser.set_defaults(ranks=[1, 2, 4])
     parser.add_argument("--sizes", type=int, nargs="+", default=[1024, 2048])
+    parser.add_argument("--scenes", nargs="+", choices=sorted(PRESSURES), default=["scene"])
+    parser.add_argument("--scene", default="scene", help=argparse.SUPPRESS)
     parser.add_argument("--gather", action="store_true",
                         help="whole result fields on every rank (the default of a solve) instead of rows")
     parser.add_argument("--by-rows", action="store_true",
@@ -136,7 +143,8 @@ def main() -> None:
     # one process per size and rank count: memory freed by an earlier solve stays in the process
     # (the allocator keeps it), which would hide part of the next one's peak
     extra = (["--gather"] if args.gather else []) + (["--by-rows"] if args.by_rows else [])
-    rows = [row for n in args.sizes for row in run_on_ranks(__spec__.name, args.ranks, ["--sizes", str(n), *extra])]
+    rows = [row for scene in args.scenes for n in args.sizes
+            for row in run_on_ranks(__spec__.name, args.ranks, ["--sizes", str(n), "--scene", scene, *extra])]
     save_json({"rows": rows, "report": report(rows)}, args.output)
 
 

@@ -22,8 +22,9 @@ own, the high-water mark reset after the surface):
 - the rest is split over the ranks: the FFT symbols of the operator and its
   preconditioner, the padded transform buffers in double and single
   precision, the solver's vectors and the coarse levels (whose transform
-  buffers are freed once they have given the fine grid its start) — about
-  :data:`DISTRIBUTED` bytes per node in all;
+  buffers are freed once they have given the fine grid its start) — at most
+  :data:`DISTRIBUTED` bytes per node in all, the most near full contact,
+  where the CG's vectors on the free set are nearly N long;
 - ``"dense"`` adds the explicit N × N matrix, 8 N²/ranks bytes, and the
   C-ordered rows its assembly fills (the same memory, handed to PETSc).
 
@@ -33,9 +34,13 @@ per node per rank on 1, 2, 4 ranks: 1024² 309, 168, 91; 2048² 298, 161, 85; 40
 with the surface by rows, 74. With the transforms' blocks above 32 MiB kept on the heap
 (:mod:`.heap`, from 2048² nodes per rank): 2048² 307, 152, 78; 4096² on one rank 298; and
 the single-precision transform buffers inside the double ones: 2048² 283, 142, 74; 4096² 274;
-and the CG's tracked edge weights (A 1_S in float32): 2048² 283, 148, 78; 4096² 282. The constants bound
-every one of these from above, and the same solve with the default, gathered result (1024²:
-309, 162, 102; 2048²: 298, 168, 102). ``"fft-periodic"`` makes its whole
+and the CG's tracked edge weights (A 1_S in float32): 2048² 283, 148, 78; 4096² 282. Near full
+contact (fractal dimension 2.5 at 1 E*, 86 % of the nodes in the free set; ``bench_memory
+--scenes full``) the same solve took more: 1024² 382, 195, 114; 2048² 369, 201, 115; 4096² on
+one rank 375; gathered, on 4 ranks, 123 and 112 — a fit gives R = 20–31, D = 338–360. The
+constants bound every one of these from above (DISTRIBUTED was 285, fitted on the large-grid
+scene alone, which near full contact exceeded by 10–14 % on one rank), and the same solve of the
+large-grid scene with the default, gathered result (1024²: 309, 162, 102; 2048²: 298, 168, 102). ``"fft-periodic"`` makes its whole
 Ewald-summed table once at set-up (8 B/node, transient). Explicit blocks of H_SS (small contact
 sets) also build the whole table over signed offsets, 32 B/node on every
 rank, while they are used.
@@ -51,8 +56,8 @@ from ..errors import InputError
 KINDS = ("dense", "fft", "fft-periodic")
 #: bytes per node held on every rank
 REPLICATED = 50
-#: bytes per node split over the ranks
-DISTRIBUTED = 285
+#: bytes per node split over the ranks (near full contact the most: 382 B/node on one rank at 1024²)
+DISTRIBUTED = 360
 
 
 def operator_memory(kind: str, nodes: int, ranks: int = 1) -> int:

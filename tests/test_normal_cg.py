@@ -180,7 +180,7 @@ def test_a_dense_free_set_takes_the_direction_field_whole(comm, control, footpri
     is taken of the direction field itself (d on the set, zero elsewhere) instead of d scattered
     at the set's positions: the same field, so the same transforms. Near full contact (160², the
     whole grid or a disc's footprint, whose rows are partial) the solve is bit for bit the one
-    that always scatters (DENSE_WRITE 0), on any rank count; it fails if the field held anything
+    that always scatters (``dense`` False in the CG), on any rank count; it fails if the field held anything
     off the set."""
     import roughcontact.normal.constrained_cg as constrained_cg
 
@@ -201,7 +201,7 @@ def test_a_dense_free_set_takes_the_direction_field_whole(comm, control, footpri
     monkeypatch.setattr(NormalProblem, "displacement", counted)
     dense = solve(problem, "cg", controls[control])
     taken = len(whole)
-    monkeypatch.setattr(constrained_cg, "DENSE_WRITE", 0)
+    monkeypatch.setattr(constrained_cg, "dense", lambda nodes, size: False)
     scattered = solve(problem, "cg", controls[control])
     problem.destroy()
     assert dense.contact_fraction > 0.8

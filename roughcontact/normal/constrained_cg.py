@@ -70,7 +70,7 @@ import numpy as np
 from scipy.linalg.blas import daxpy
 
 from ..errors import ConvergenceError, InputError
-from ..operators.convolution import DENSE_WRITE
+from ..operators.convolution import dense
 from ..operators.holes import HOLE_BLOCK, HoleCharge
 from ..operators.preconditioner import EDGE_SHARE, EDGE_UPDATES, EdgeWeights
 from .nested import COARSE_TOL, NestedStart
@@ -564,7 +564,7 @@ class ConstrainedCGSolver(NormalSolver):
             previous = gz
             _clear(direction, last)
             direction[working] = step_direction
-            if DENSE_WRITE * working.size > forces.size:
+            if dense(working.size, forces.size):
                 # a dense set: the direction field itself (d on the set, zero elsewhere) goes
                 # into the transform whole, where scattering d at the set's positions cost three
                 # passes over the slab (the product 0.81-0.85 of the time near full contact at

@@ -84,6 +84,14 @@ RUN_POINTS = 40000
 DENSE_WRITE = 8
 
 
+def dense(nodes: int, size: int) -> bool:
+    """Whether a field at ``nodes`` of a rank's ``size`` values counts as dense: more than one in
+    :data:`DENSE_WRITE`. Written dense here (:meth:`SlabConvolution.apply_at`), and where a caller
+    holds the whole field it hands that in instead of values at positions (the constrained CG's
+    search direction, :class:`~.preconditioner.EdgeWeights`' set)."""
+    return DENSE_WRITE * nodes > size
+
+
 def default_workers(comm) -> int:
     """FFT threads per rank: the cores this process may use, shared by the ranks of its node.
 
@@ -284,7 +292,7 @@ class SlabConvolution:
         rows, columns = self._padded(single)
         count, ny, ly = rows.shape[0], self.shape[1], self.lengths[1]
         block = rows[:, :ny]
-        flat = _flat_slab(rows, columns, count * ny) if DENSE_WRITE * positions.size > count * ny else None
+        flat = _flat_slab(rows, columns, count * ny) if dense(positions.size, count * ny) else None
         if flat is not None:
             flat.fill(0.0)
             flat[positions] = values
@@ -292,7 +300,7 @@ class SlabConvolution:
             self._written[single] = None                    # the whole block: zeroed whole next
             return block.any(axis=1)
         last = self._written.get(single)
-        if last is None or DENSE_WRITE * last.size > count * ny:
+        if last is None or dense(last.size, count * ny):
             block[...] = 0.0
         else:
             rows.reshape(-1)[last] = 0.0

@@ -66,7 +66,7 @@ import numpy as np
 import scipy.fft as sfft
 
 from ..errors import ConvergenceError
-from .convolution import DENSE_WRITE, SlabConvolution
+from .convolution import SlabConvolution, dense
 from .kernel import mirrored_kernel, punch_kernel
 from .near_field import gathered_centres
 
@@ -279,7 +279,7 @@ class EdgeWeights:
                 self.updates += 1
         else:
             # the product's own result (a fresh array, contiguous on the periodic grid) is kept
-            if DENSE_WRITE * nodes.size > members.size:
+            if dense(nodes.size, members.size):
                 # a dense set: its mask goes into the transform whole, where writing 1 at its
                 # positions cost three passes over the slab (the product 0.53-0.71 of the time
                 # near full contact at 1024² and 2048², 86 % of the nodes in the set)

@@ -87,7 +87,9 @@ CHEAP_FACTOR, CHEAP_RADIUS = 8, 4
 
 
 def pcg(apply, precondition, rhs, deflation=None, limit: int = 1000) -> int:
-    """Iterations of (deflated) PCG on apply(x) = rhs to a relative residual TOL."""
+    """Iterations of (deflated) PCG on apply(x) = rhs to a relative residual TOL; raises where the
+    preconditioned operator shows a non-positive curvature or TOL is not met in ``limit``
+    iterations, so that no row reports a count that did not converge."""
     norm = np.linalg.norm(rhs)
     if deflation is None:
         project = lambda v: v                                  # noqa: E731
@@ -100,14 +102,19 @@ def pcg(apply, precondition, rhs, deflation=None, limit: int = 1000) -> int:
     direction, rz = z.copy(), residual @ z
     for iteration in range(1, limit + 1):
         product = project(apply(direction))
-        step = rz / (direction @ product)
+        curvature = direction @ product
+        if not (curvature > 0.0 and rz > 0.0):
+            raise RuntimeError(f"PCG iteration {iteration}: dᵀAd = {curvature:.3e}, rᵀz = {rz:.3e}: "
+                               "the operator or the preconditioner is not positive definite here")
+        step = rz / curvature
         residual -= step * product
         if np.linalg.norm(residual) <= TOL * norm:
             return iteration
         z = precondition(residual)
         rz, previous = residual @ z, rz
         direction = z + (rz / previous) * direction
-    return limit
+    raise RuntimeError(f"PCG did not reach a relative residual {TOL:g} in {limit} iterations "
+                       f"(last {np.linalg.norm(residual) / norm:.3e})")
 
 
 def coarse_spaces(nodes: np.ndarray, n: int, limit: int) -> dict[str, np.ndarray]:

@@ -351,7 +351,7 @@ class ConstrainedCGSolver(NormalSolver):
     def _solve(self, rigid, free, loads):
         forces, motion = self._start(rigid, free, loads)
         if len(free) <= 1:
-            return self._constrained_cg(rigid, free, loads, forces, forces_in_double=not self.coarse)
+            return self._constrained_cg(rigid, free, loads, forces, forces_in_double=not self.coarse, owned=True)
         # free rotation: Newton on (θx, θy), each evaluation a load-controlled solve at fixed θ
         rigid[free] = motion[free]
         state = {"forces": forces}
@@ -401,10 +401,11 @@ class ConstrainedCGSolver(NormalSolver):
         return np.maximum(forces, 0.0, out=forces)
 
     def _constrained_cg(self, rigid, free, loads, forces, tol: float | None = None,
-                        forces_in_double: bool = True):
+                        forces_in_double: bool = True, owned: bool = False):
         """The bound-constrained CG with δz imposed (``free`` = []) or found from P (``free`` = [0]);
         ``forces_in_double`` False: the products H p of the forces themselves in the working
-        precision too (a coarse level's state at COARSE_TOL, which only starts the next level)."""
+        precision too (a coarse level's state at COARSE_TOL, which only starts the next level);
+        ``owned``: ``forces`` are the solve's own to change (a fresh start), not copied first."""
         pb, settings = self.problem, self.settings
         tol = settings.tol if tol is None else tol
         rigid = rigid.copy()
@@ -413,7 +414,8 @@ class ConstrainedCGSolver(NormalSolver):
         load = loads[0] if free else None
         w_scale = pb.interpenetration_scale(w)
         single = settings.precision == "mixed"
-        forces = forces.copy()
+        if not owned:
+            forces = forces.copy()
         if load is not None:
             forces *= _load_scale(pb, forces, load)
         # H p of the forces themselves in double, but on a coarse level at a loose tolerance
@@ -470,6 +472,10 @@ class ConstrainedCGSolver(NormalSolver):
             # max(|g| on S, max(−g) off S): −g ≤ |g| on S, so the minimum may run over all nodes
             residual = float(pb.allmax(max(np.abs(on_contact).max(initial=0.0),
                                             approach - lifted.min(initial=approach)))) / w_scale
+            # each vector of the set's size is let go as soon as it has served: left alive into the
+            # products below, whose blocks were then allocated beside them, they raised a rank's
+            # peak by 62 B per node near full contact at 2048² (docs/solvers.md)
+            del contact, on_contact
             history.append(residual)
             best, since_best = (residual, 0) if residual < best else (best, since_best + 1)
             # single-precision products stalled (no new lowest residual in `renew` iterations: near
@@ -499,6 +505,7 @@ class ConstrainedCGSolver(NormalSolver):
                 # restart them, and take every product in double from here (the single ones left
                 # 1.2e-10 at 65² and tol 1e-11, and 1084 iterations against 310 when they went on)
                 if since_refresh:
+                    del displacement                   # not held through the product that replaces it
                     displacement = exact()
                 if pending is not None and pending.count:
                     # the deferred far fields may have made the difference: no more deferring, but
@@ -509,7 +516,7 @@ class ConstrainedCGSolver(NormalSolver):
                 since_refresh, previous, since_best = 0, None, 0
                 continue
             # masks, not sorted-set operations: union1d's sort cost more than the FFT products at 512²
-            last, last_mask, free_mask = working, free_mask, last_mask
+            last, last_mask, free_mask = _cleared(working, forces.size), free_mask, last_mask
             np.logical_or(in_contact, np.less(lifted, approach, out=free_mask), out=free_mask)
             held = 0 if left is None else _hold_back(free_mask, in_contact, left, squares, iteration, changed)
             working = np.flatnonzero(free_mask)
@@ -564,6 +571,7 @@ class ConstrainedCGSolver(NormalSolver):
             previous = gz
             _clear(direction, last)
             direction[working] = step_direction
+            del g, z
             if dense(working.size, forces.size):
                 # a dense set: the direction field itself (d on the set, zero elsewhere) goes
                 # into the transform whole, where scattering d at the set's positions cost three
@@ -586,7 +594,10 @@ class ConstrainedCGSolver(NormalSolver):
                                               "residual": residual, "changed": int(counts[0]),
                                               "free": int(counts[1]), "held": int(counts[2]), "alpha": float(step),
                                               "restart": list(restarts)}})
-            trial = forces[working] - step * step_direction
+            step_direction *= step                     # α d in place (``direction`` keeps d): no temporary
+            trial = forces[working]
+            trial -= step_direction
+            del step_direction
             leaving = trial < 0.0
             cut = bool(pb.allmax(float(leaving.any())) > 0.0)
             if cut:                                    # the forces the cut adds back, c = −trial ≥ 0
@@ -599,12 +610,14 @@ class ConstrainedCGSolver(NormalSolver):
             if scale != 1.0:
                 trial *= scale
             forces[working] = trial
+            del trial, leaving
             since_refresh += 1
             # once, where the residual first reaches SINGLE_FLOOR: an exact H p drops the
             # single-precision errors of the large early steps (``CGSettings.precision``)
             floor = single and forces_in_double and not at_floor and residual <= SINGLE_FLOOR
             at_floor = at_floor or floor
             if since_refresh >= settings.refresh or floor:
+                del product, displacement
                 displacement = exact()
                 since_refresh = 0
                 if pending is not None:
@@ -615,6 +628,7 @@ class ConstrainedCGSolver(NormalSolver):
                 # only c's near field while the far fields deferred stay below `allowed` (settled
                 # also on an iteration without a cut once the gap has shrunk below them)
                 displacement = _add_scaled(displacement, -step, product)
+                del product                            # before the product of the cut forces
                 if cut and pending is None:
                     displacement += pb.displacement_at(clipped[cut_nodes], cut_nodes, single)
                 elif pending is not None:
@@ -771,11 +785,18 @@ def _hold_back(free: np.ndarray, contact: np.ndarray, left: np.ndarray, squares:
     return int(np.count_nonzero(scratch))
 
 
-def _clear(field: np.ndarray, nodes: np.ndarray) -> None:
-    """field[nodes] = 0, by zeroing the whole field where ``nodes`` hold more than one in 8 of its
-    values: near full contact the free sets hold most nodes, and zeroing all of 2048² took 0.31 /
-    0.84 ms where zeroing 86 % of it by index took 3.6 / 3.7 ms (float32 / float64)."""
-    if nodes.size > field.size // 8:
+def _cleared(nodes: np.ndarray, size: int) -> np.ndarray | None:
+    """What :func:`_clear` needs of a set of ``nodes`` among ``size``: the nodes, or None where they
+    hold more than one in 8 and the field is zeroed whole. Near full contact the free sets hold
+    most nodes, and zeroing all of 2048² took 0.31 / 0.84 ms where zeroing 86 % of it by index
+    took 3.6 / 3.7 ms (float32 / float64); the last set's indices are then not kept alive beside
+    the new set's (7 B per node)."""
+    return None if nodes.size > size // 8 else nodes
+
+
+def _clear(field: np.ndarray, nodes: np.ndarray | None) -> None:
+    """field[nodes] = 0; the whole field where ``nodes`` is None (:func:`_cleared`)."""
+    if nodes is None:
         field.fill(0.0)
     else:
         field[nodes] = 0.0

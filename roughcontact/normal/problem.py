@@ -70,14 +70,14 @@ class NormalProblem(Collective):
         self.size = layout.size
         self.start, self.stop = layout.start, layout.stop
         self.counts = np.array(comm.allgather(layout.local_size))     # nodes of each rank
-        # only this rank's nodes are held: no array of all N nodes on every rank
-        self.nodes = layout.local_nodes()                             # (i, j) of this rank's nodes
         s = topography.spacing
+        nodes = self.nodes
         # the centroid from integer sums: exact, so the same bits on any number of ranks
-        index_sums = np.array(comm.allreduce(self.nodes.sum(axis=0, dtype=np.int64)), dtype=float)
+        index_sums = np.array(comm.allreduce(nodes.sum(axis=0, dtype=np.int64)), dtype=float)
         self.centroid = index_sums * s / self.size
-        self.x = self.nodes[:, 0] * s - self.centroid[0]
-        self.y = self.nodes[:, 1] * s - self.centroid[1]
+        self.x = nodes[:, 0] * s - self.centroid[0]
+        self.y = nodes[:, 1] * s - self.centroid[1]
+        del nodes
         heights = topography.local_rows(layout.rows)[0][layout.local_mask]
         top, negative_bottom = self.allmax(np.array([heights.max(initial=-np.inf),
                                                      -heights.min(initial=np.inf)]))
@@ -87,6 +87,14 @@ class NormalProblem(Collective):
         self.height_range = float(top + negative_bottom) if self.size > 1 else 0.0
         self._extent = float(self.allmax(max(np.abs(self.x).max(initial=0.0), np.abs(self.y).max(initial=0.0))))
         self._hull = None
+
+    @property
+    def nodes(self) -> np.ndarray:
+        """(i, j) grid indices of this rank's nodes, in the order of the unknowns (int32), made
+        when asked: 8 B per node that every rank held for the few reads of a solver's set-up. The
+        coordinates ``x`` and ``y`` stay held: every solve reads them (Eqs. 7-8), and making
+        them there cost page faults worth 5-10 % of a 1024² solve."""
+        return self.flexibility.layout.local_nodes()
 
     @property
     def operator(self):

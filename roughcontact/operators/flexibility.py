@@ -87,7 +87,8 @@ class Flexibility:
             self.diagonal = float(punch_kernel((1, 1), self.spacing, self.compliance)[0, 0])
         self._preconditioner = None
         self._near_field = None                       # NearField, False where none applies
-        self._slab = np.zeros((r1 - r0, self.shape[1]))
+        # the slab a product writes a footprint's nodes into; whole rows are their own slab (a view)
+        self._slab = None if self.layout.whole_rows else np.zeros((r1 - r0, self.shape[1]))
         if kind == "dense":
             from .dense import assemble_flexibility
 

@@ -16,7 +16,7 @@ own, the high-water mark reset after the surface):
   after the solver's vectors are freed), the coarse topography of a nested
   start and the C allocator's retention of freed mid-sized arrays — at most
   :data:`REPLICATED` bytes per node; the operator itself keeps only its
-  rank's rows of the Eq. 10 table, nodes and coordinates, and a solve with
+  rank's rows of the Eq. 10 table and its nodes' coordinates, and a solve with
   ``gather=False`` only its rank's rows of the fields
   (:mod:`roughcontact.normal.fields`);
 - the rest is split over the ranks: the FFT symbols of the operator and its
@@ -37,10 +37,14 @@ the single-precision transform buffers inside the double ones: 2048² 283, 142, 
 and the CG's tracked edge weights (A 1_S in float32): 2048² 283, 148, 78; 4096² 282. Near full
 contact (fractal dimension 2.5 at 1 E*, 86 % of the nodes in the free set; ``bench_memory
 --scenes full``) the same solve took more: 1024² 382, 195, 114; 2048² 369, 201, 115; 4096² on
-one rank 375; gathered, on 4 ranks, 123 and 112 — a fit gives R = 20–31, D = 338–360. The
-constants bound every one of these from above (DISTRIBUTED was 285, fitted on the large-grid
-scene alone, which near full contact exceeded by 10–14 % on one rank), and the same solve of the
-large-grid scene with the default, gathered result (1024²: 309, 162, 102; 2048²: 298, 168, 102). ``"fft-periodic"`` makes its whole
+one rank 375; gathered, on 4 ranks, 123 and 112 — a fit gives R = 20–31, D = 338–360
+(DISTRIBUTED was 285, fitted on the large-grid scene alone, which near full contact exceeded by
+10–14 % on one rank). Since the CG lets each vector of the free set's size go once it has served
+and the problem makes its nodes' indices when asked (docs/solvers.md, "Vectors let go once they
+have served"): near full contact 1024² 280, 147, 84; 2048² 280, 144, 77; 4096² on one rank 282;
+gathered, on 4 ranks, 97 and 94 (R = 9–18, D = 262–271); the large-grid scene 1024² 237, 132,
+77; 2048² 238, 130, 68; 4096² 240; gathered, on 4 ranks, 90 and 84. The constants bound every
+one of these from above. ``"fft-periodic"`` makes its whole
 Ewald-summed table once at set-up (8 B/node, transient). Explicit blocks of H_SS (small contact
 sets) also build the whole table over signed offsets, 32 B/node on every
 rank, while they are used.
@@ -56,8 +60,10 @@ from ..errors import InputError
 KINDS = ("dense", "fft", "fft-periodic")
 #: bytes per node held on every rank
 REPLICATED = 50
-#: bytes per node split over the ranks (near full contact the most: 382 B/node on one rank at 1024²)
-DISTRIBUTED = 360
+#: bytes per node split over the ranks (near full contact the most: 282 B/node on one rank at 4096²);
+#: on one rank also the bound of a solve's own allocations with its fields by rows
+#: (tests/test_normal_distributed.py)
+DISTRIBUTED = 280
 
 
 def operator_memory(kind: str, nodes: int, ranks: int = 1) -> int:

@@ -92,8 +92,9 @@ class NormalProblem(Collective):
     def nodes(self) -> np.ndarray:
         """(i, j) grid indices of this rank's nodes, in the order of the unknowns (int32), made
         when asked: 8 B per node that every rank held for the few reads of a solver's set-up. The
-        coordinates ``x`` and ``y`` stay held: every solve reads them (Eqs. 7-8), and making
-        them there cost page faults worth 5-10 % of a 1024² solve."""
+        coordinates ``x`` and ``y`` stay held: every solve reads them (Eqs. 7-8), and made there
+        they took fresh pages in every solve (about 6 000 more page faults in a repeated 1024²
+        solve, docs/solvers.md)."""
         return self.flexibility.layout.local_nodes()
 
     @property

@@ -786,12 +786,13 @@ def _hold_back(free: np.ndarray, contact: np.ndarray, left: np.ndarray, squares:
 
 
 def _cleared(nodes: np.ndarray, size: int) -> np.ndarray | None:
-    """What :func:`_clear` needs of a set of ``nodes`` among ``size``: the nodes, or None where they
-    hold more than one in 8 and the field is zeroed whole. Near full contact the free sets hold
-    most nodes, and zeroing all of 2048² took 0.31 / 0.84 ms where zeroing 86 % of it by index
-    took 3.6 / 3.7 ms (float32 / float64); the last set's indices are then not kept alive beside
-    the new set's (7 B per node)."""
-    return None if nodes.size > size // 8 else nodes
+    """What :func:`_clear` needs of a set of ``nodes`` among ``size``: the nodes, or None where the
+    set is dense (:func:`~roughcontact.operators.convolution.dense`, the test the direction's
+    product takes) and the field is zeroed whole. Near full contact the free sets hold most nodes,
+    and zeroing all of 2048² took 0.31 / 0.84 ms where zeroing 86 % of it by index took 3.6 /
+    3.7 ms (float32 / float64); the last set's indices are then not kept alive beside the new
+    set's (7 B per node)."""
+    return None if dense(nodes.size, size) else nodes
 
 
 def _clear(field: np.ndarray, nodes: np.ndarray | None) -> None:

@@ -273,10 +273,12 @@ def test_createsubmatrix_of_the_matrix_free_operator(comm):
     fft.destroy()
 
 
-def test_fourier_preconditioner_is_symmetric_positive_definite(comm):
+@pytest.mark.parametrize("n", [32, 33])
+def test_fourier_preconditioner_is_symmetric_positive_definite(comm, n):
     """z = R_S C⁻¹ R_Sᵀ g is symmetric and positive on S (so it can precondition CG):
-    xᵀ M y = yᵀ M x to round-off, and xᵀ M x > 0 for random x."""
-    fft = Flexibility(topography(32, "disc"), ROCK, comm, kind="fft")
+    xᵀ M y = yᵀ M x to round-off, and xᵀ M x > 0 for random x. C's period is 48 along x at 32²
+    and 49 (odd: its middle row of kx has no mirror) at 33²."""
+    fft = Flexibility(topography(n, "disc"), ROCK, comm, kind="fft")
     rng = np.random.default_rng(3)
     n = fft.layout.local_size
     active = rng.random(n) < 0.4
@@ -287,6 +289,50 @@ def test_fourier_preconditioner_is_symmetric_positive_definite(comm):
     assert abs(xmy - ymx) <= 1e-12 * abs(xmx)
     assert xmx > 0.0
     fft.destroy()
+
+
+@pytest.mark.parametrize("period", [(45, 45), (44, 45), (48, 48), (57, 50)])
+def test_a_product_on_a_longer_period_is_the_folded_sum_written_out(comm, period):
+    """A convolution keeps its symbol's rows kx = 0 … Lx // 2 and scales the others by their
+    mirror, the symbol of an even kernel being even in kx. On periods odd and even along x the
+    product equals the circular sum u_a = Σ_c k(fold(a − c)) x_c over the period, written out
+    term by term (fold(d) = min(d mod L, L − d mod L) per direction; a random table, so no
+    symmetry of the kernel's values hides a wrong row): to 1e-12 of the largest value in double
+    (the FFT's round-off is O(ε log L), about 1e-15) and 1e-6 in single (float32's ε = 6e-8 grown
+    as O(ε log L), as above)."""
+    from roughcontact.operators.convolution import SlabConvolution
+
+    n = 29
+    convolution = SlabConvolution((n, n), comm, period=period)
+    rng = np.random.default_rng(sum(period))
+    table = rng.random((n, n))
+    field = rng.standard_normal((n, n))                # the same on every rank
+    convolution.set_folded_kernel(table)
+    offsets = np.arange(n)[:, None] - np.arange(n)[None, :]
+    fx, fy = (np.minimum(offsets % length, -offsets % length) for length in period)
+    direct = np.einsum("abcd,cd->ab", table[fx[:, None, :, None], fy[None, :, None, :]], field)
+    r0, r1 = convolution.rows
+    scale = np.abs(direct).max()
+    for single, tolerance in ((False, 1e-12), (True, 1e-6)):
+        product = convolution.apply(np.ascontiguousarray(field[r0:r1]), single)
+        assert np.abs(product - direct[r0:r1]).max(initial=0.0) <= tolerance * scale, (single, period)
+
+
+def test_a_symbol_that_is_not_even_is_refused(comm):
+    """Only the rows kx ≤ Lx // 2 of a symbol are kept, so a symbol whose row Lx − k is not row k
+    (not the symbol of an even kernel) is refused in one line instead of being replaced by the
+    mirror of its first half."""
+    from roughcontact.operators.convolution import SlabConvolution
+
+    convolution = SlabConvolution((16, 16), comm)
+    c0, c1 = convolution.my_columns
+    symbol = np.ones((convolution.lengths[0], c1 - c0))
+    symbol[1] = 2.0                                    # row Lx − 1 stays 1
+    with pytest.raises(ValueError, match="not even in kx"):
+        convolution.set_symbol(symbol)
+    symbol[-1] = 2.0                                   # now even: kept, and given back whole
+    convolution.set_symbol(symbol)
+    assert np.array_equal(convolution.symbol, symbol)
 
 
 def test_ewald_sum_is_independent_of_the_splitting():

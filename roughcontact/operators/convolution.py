@@ -82,6 +82,9 @@ RUN_POINTS = 40000
 #: padded rows, instead of scattered there at padded indices, whose integer division and
 #: modulo cost more than the scatter itself
 DENSE_WRITE = 8
+#: how far from even in kx a symbol may be, relative to its largest value: a transform's round-off
+#: (the symbols of the half-space and the periodic kernels are even to about 1e-16)
+EVEN_TOLERANCE = 1e-9
 
 
 def dense(nodes: int, size: int) -> bool:
@@ -163,8 +166,11 @@ class SlabConvolution:
         self.column_blocks = split(self.columns, self.size)
         self.rows = self.row_blocks[self.rank]
         self.my_columns = self.column_blocks[self.rank]
-        self.symbol: np.ndarray | None = None                      # (Lx, my columns), real
-        self._single_symbol: np.ndarray | None = None              # the symbol as float32, on first use
+        # the symbol (real, even in kx: the kernel is even) by its first Lx // 2 + 1 rows of this
+        # rank's columns, the others being their mirror (:meth:`_filtered`); in single precision
+        # each value twice, beside the real and imaginary parts it scales, made on first use
+        self._half: np.ndarray | None = None
+        self._single_half: np.ndarray | None = None
         # the padded rows and columns buffers of forward(), by precision: views of one storage of
         # the widest precision used so far, so that the single ones cost no memory of their own
         self._storage: tuple[np.ndarray, np.ndarray] | None = None
@@ -232,31 +238,51 @@ class SlabConvolution:
 
     def _set_transformed(self, columns: np.ndarray) -> None:
         """The symbol from the kernel transformed along y, all Lx rows of this rank's columns."""
-        self.symbol = np.ascontiguousarray(sfft.fft(columns, axis=0, workers=self.workers).real)
-        self._single_symbol = None
+        self.set_symbol(sfft.fft(columns, axis=0, workers=self.workers).real)
 
     def set_symbol(self, symbol_columns: np.ndarray) -> None:
-        """Set the symbol directly: this rank's columns, shape (Lx, my columns), real."""
+        """Set the symbol directly: this rank's columns, shape (Lx, my columns), real and even in
+        kx (row Lx − k equal to row k to round-off, as the symbol of any even kernel is); only its
+        first Lx // 2 + 1 rows are kept."""
         c0, c1 = self.my_columns
         symbol_columns = np.asarray(symbol_columns, dtype=float)
         if symbol_columns.shape != (self.lengths[0], c1 - c0):
             raise ValueError(f"symbol block has shape {symbol_columns.shape}, expected "
                              f"{(self.lengths[0], c1 - c0)}")
-        self.symbol = np.ascontiguousarray(symbol_columns)
-        self._single_symbol = None
+        half = self._half_rows
+        mirrored = symbol_columns[half:]
+        if mirrored.size:
+            scale = float(np.abs(symbol_columns).max())
+            odd = float(np.abs(mirrored - symbol_columns[self.lengths[0] - half:0:-1]).max())
+            if not odd <= EVEN_TOLERANCE * scale:
+                raise ValueError(f"the symbol is not even in kx (rows k and Lx - k differ by {odd:.3e} "
+                                 f"of a largest value {scale:.3e}): the kernel must be even")
+        self._half = np.ascontiguousarray(symbol_columns[:half])
+        self._single_half = None
+
+    @property
+    def _half_rows(self) -> int:
+        """The rows of the symbol kept: kx = 0 … Lx // 2; row Lx − k is row k's mirror."""
+        return self.lengths[0] // 2 + 1
+
+    @property
+    def symbol(self) -> np.ndarray | None:
+        """The symbol on this rank's columns, all Lx rows (a new array made from the rows kept;
+        None before it is set)."""
+        if self._half is None:
+            return None
+        half = self._half_rows
+        return np.concatenate([self._half, self._half[self.lengths[0] - half:0:-1]])
+
+    def release_symbol(self) -> None:
+        """Forget the symbol (an owner that keeps symbols of its own, :mod:`.shear`)."""
+        self._half = self._single_half = None
 
     # --------------------------------------------------------------- product
     def apply(self, field: np.ndarray, single: bool = False) -> np.ndarray:
         """k ⊛ field on this rank's rows: ``field`` and the result have shape (rows, ny);
         ``single``: computed in single precision (the result is float32)."""
         return self._filtered(self.forward(field, single), single)
-
-    def _symbol(self, single: bool) -> np.ndarray:
-        if not single:
-            return self.symbol
-        if self._single_symbol is None:
-            self._single_symbol = self.symbol.astype(np.float32)
-        return self._single_symbol
 
     def apply_at(self, values, positions: np.ndarray, single: bool = False) -> np.ndarray:
         """k ⊛ x for x equal to ``values`` at the flat ``positions`` of this rank's (rows, ny) slab
@@ -317,8 +343,22 @@ class SlabConvolution:
         return occupied
 
     def _filtered(self, spectrum: np.ndarray, single: bool, crop: bool = True) -> np.ndarray:
-        """The product from the field's transform: times the symbol, transformed back."""
-        spectrum *= self._symbol(single)
+        """The product from the field's transform: times the symbol, transformed back.
+
+        The rows kx = 0 … Lx // 2 are scaled by the symbol's rows kept, the others by their
+        mirror (a view with rows reversed). In single precision the spectrum is scaled as float32
+        pairs by the symbol's values each written twice: complex64 times a float32 symbol
+        converted each value on the fly, 1.3–1.4 times as long (a 2048² padded product's 4096 × 2049
+        spectrum: 15.2 and 15.4 against 11.7 and 11.1 ms, medians of 11)."""
+        half = self._half_rows
+        if single and spectrum.flags.c_contiguous:
+            if self._single_half is None:
+                self._single_half = np.repeat(self._half.astype(np.float32), 2, axis=1)
+            symbol, scaled = self._single_half, spectrum.view(np.float32)
+        else:
+            symbol, scaled = (self._half.astype(np.float32) if single else self._half), spectrum
+        scaled[:half] *= symbol
+        scaled[half:] *= symbol[self.lengths[0] - half:0:-1]
         return self.backward(spectrum, crop)
 
     def forward(self, field: np.ndarray, single: bool = False) -> np.ndarray:

@@ -86,7 +86,8 @@ def odd_symbol(convolution: SlabConvolution, table: np.ndarray) -> np.ndarray:
     F(kx, ky) − F(−kx, ky) − F(kx, −ky) + F(−kx, −ky) = 2 Re F(kx, ky) − 2 Re F(−kx, ky)
     for a real table; −kx is a row of the same rank's columns. The table's
     first row and column vanish (the kernel is odd), so no offset is counted twice.
-    Returns this rank's block (Lx, my columns), for :meth:`SlabConvolution.set_symbol`.
+    Returns this rank's block (Lx, my columns), odd in kx: :class:`ShearConvolution` keeps it
+    beside the even ones (a :class:`SlabConvolution` holds only even symbols).
     """
     r0, r1 = convolution.rows
     spectrum = convolution.forward(np.ascontiguousarray(table[r0:r1]))
@@ -121,7 +122,7 @@ class ShearConvolution:
             symbols.append(self.convolution.symbol)
         symbols.append(odd_symbol(self.convolution, self.tables[2]))
         self.symbols = tuple(np.ascontiguousarray(s) for s in symbols)
-        self.convolution.symbol = None
+        self.convolution.release_symbol()
         self.rows = self.convolution.rows
 
     def apply(self, qx: np.ndarray, qy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

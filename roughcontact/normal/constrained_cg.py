@@ -410,9 +410,12 @@ class ConstrainedCGSolver(NormalSolver):
         tol = settings.tol if tol is None else tol
         rigid = rigid.copy()
         rigid[free] = 0.0
-        w = pb.interpenetration(rigid)                 # w_fixed: δz left out under load control
+        # w_fixed (δz left out under load control); None where the imposed motion is zero and w
+        # is −gap0, which the problem holds already: the iteration adds gap0 instead of
+        # subtracting a copy of w (8 B per node less, the same bits)
+        w = pb.interpenetration(rigid) if rigid.any() else None
         load = loads[0] if free else None
-        w_scale = pb.interpenetration_scale(w)
+        w_scale = pb.interpenetration_scale(pb.gap0 if w is None else w)
         single = settings.precision == "mixed"
         if not owned:
             forces = forces.copy()
@@ -465,7 +468,10 @@ class ConstrainedCGSolver(NormalSolver):
                 left |= np.greater(in_contact, changed, out=in_contact)
             in_contact, changed = changed, in_contact
             contact = np.flatnonzero(in_contact)
-            np.subtract(displacement, w, out=lifted)
+            if w is None:
+                np.add(displacement, pb.gap0, out=lifted)
+            else:
+                np.subtract(displacement, w, out=lifted)
             on_contact = lifted[contact]
             approach = _mean(pb, on_contact) if load is not None else 0.0
             on_contact -= approach                     # the deformed gap on S, zero at the solution

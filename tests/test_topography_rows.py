@@ -49,14 +49,18 @@ def test_scatter_gives_each_rank_its_rows_of_the_whole_topography(comm, n):
     assert rows.metadata == whole.metadata
 
 
+@pytest.mark.parametrize("source", ["rows", "whole"])
 @pytest.mark.parametrize("n", [40, 41, 130])
-def test_decimated_rows_are_the_rows_of_the_decimated_topography(comm, n):
+def test_decimated_rows_are_the_rows_of_the_decimated_topography(comm, n, source):
     """Every other node, redistributed to the coarse grid's rows (each rank's coarse rows come from
     fine rows that other ranks may hold): coarsen(topography, 2, "decimate") cut into rows, bit for
-    bit, for even and odd n."""
+    bit, for even and odd n; from rows, and from a whole topography on every rank (the nested
+    start's coarse grid, :func:`roughcontact.normal.nested.decimated_rows`)."""
+    from roughcontact.normal.nested import decimated_rows
+
     whole = disc_topography(n)
     coarse = coarsen(whole, 2, "decimate")
-    rows = scattered(whole, comm).decimated(comm)
+    rows = scattered(whole, comm).decimated(comm) if source == "rows" else decimated_rows(whole, comm)
     start, stop = split(coarse.shape[0], comm.Get_size())[comm.Get_rank()]
     assert rows.rows == (start, stop) and rows.shape == coarse.shape and rows.spacing == coarse.spacing
     np.testing.assert_array_equal(rows.local_footprint, coarse.footprint[start:stop])

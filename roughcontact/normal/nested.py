@@ -21,8 +21,7 @@ import warnings
 import numpy as np
 
 from ..errors import ConvergenceError, InputError
-from ..surfaces import coarsen
-from ..surfaces.rows import rows_window
+from ..surfaces.rows import TopographyRows, rows_window, split
 from .problem import NormalProblem
 from .result import NormalResult
 
@@ -63,9 +62,10 @@ class NestedStart:
         give a start (a load point outside its footprint, a failed solve: warned about)."""
         fine = self.problem
         if self.solver is None:
-            # every other node; by rows where the fine topography is (no rank holds the whole grid)
+            # every other node, by rows: no rank holds a whole coarse grid (N/4 + N/16 + … heights
+            # and masks, 3 B per fine node, were on every rank where the fine surface was whole)
             coarse_topography = fine.topography.decimated(fine.comm) if fine.topography.by_rows \
-                else coarsen(fine.topography, 2, "decimate")
+                else decimated_rows(fine.topography, fine.comm)
             self.coarse_problem = NormalProblem(coarse_topography, fine.interface, fine.comm,
                                                 operator=fine.operator_kind)
             self.solver = self.make(self.coarse_problem)
@@ -100,6 +100,16 @@ class NestedStart:
             self.solver.destroy()
             self.coarse_problem.destroy()
         self.solver = self.coarse_problem = None
+
+
+def decimated_rows(topography, comm) -> TopographyRows:
+    """This rank's rows of :func:`~roughcontact.surfaces.coarsen` (``topography``, 2,
+    ``"decimate"``) for a whole topography (every rank holds it): its own rows taken as a
+    :class:`~roughcontact.surfaces.TopographyRows` (a copy of N/ranks values, let go at once) and
+    decimated by rows (:meth:`~roughcontact.surfaces.TopographyRows.decimated`)."""
+    start, stop = split(topography.shape[0], comm.Get_size())[comm.Get_rank()]
+    return TopographyRows.from_rows(topography.heights[start:stop], topography.spacing, topography.shape, comm,
+                                    topography.footprint[start:stop], topography.metadata).decimated(comm)
 
 
 def _height_offset(fine: NormalProblem, coarse: NormalProblem) -> float:

@@ -92,9 +92,9 @@ def test_a_solve_allocates_within_the_memory_estimates_share_of_one_rank(scene):
     allocate at most DISTRIBUTED B per node on one rank. Traced allocations (tracemalloc:
     deterministic, unlike the resident set) of set-up and a nested solve at 256², one rank:
     near full contact (fractal dimension 2.5 at 1 E*, 86 % of the nodes in the free set, the
-    scene that takes the most) 247 B/node, the large-grid scene (2 %) 223. When each iteration's
+    scene that takes the most) 229 B/node, the large-grid scene (2 %) 205. When each iteration's
     vectors of the set's size were still held through the next products, the same solves took
-    332 and 268: near full contact above it (DISTRIBUTED 280). Run on each rank alone."""
+    332 and 268: near full contact above it (DISTRIBUTED 265). Run on each rank alone."""
     from mpi4py import MPI
 
     from benchmarks.bench_products import PRESSURES, SHAPES

@@ -13,8 +13,8 @@ own, the high-water mark reset after the surface):
 - what every rank holds whatever the number of ranks — the result's fields
   in the default, gathered form (a :class:`~roughcontact.normal.result.NormalResult`
   whole on every rank: force, pressure, contact and gap, 25 B/node, made
-  after the solver's vectors are freed), the coarse topography of a nested
-  start and the C allocator's retention of freed mid-sized arrays — at most
+  after the solver's vectors are freed) and the C allocator's retention of
+  freed mid-sized arrays — at most
   :data:`REPLICATED` bytes per node; the operator itself keeps only its
   rank's rows of the Eq. 10 table and its nodes' coordinates, and a solve with
   ``gather=False`` only its rank's rows of the fields
@@ -43,8 +43,13 @@ one rank 375; gathered, on 4 ranks, 123 and 112 — a fit gives R = 20–31, D =
 and the problem makes its nodes' indices when asked (docs/solvers.md, "Vectors let go once they
 have served"): near full contact 1024² 280, 147, 84; 2048² 280, 144, 77; 4096² on one rank 282;
 gathered, on 4 ranks, 97 and 94 (R = 9–18, D = 262–271); the large-grid scene 1024² 237, 132,
-77; 2048² 238, 130, 68; 4096² 240; gathered, on 4 ranks, 90 and 84. The constants bound every
-one of these from above. ``"fft-periodic"`` makes its whole
+77; 2048² 238, 130, 68; 4096² 240; gathered, on 4 ranks, 90 and 84. Since the FFT symbols keep
+half their rows, w is not held beside gap0 and the coarse grids are held by rows
+(docs/solvers.md, "The symbol by half its rows"): near full contact 1024² 264, 146, 75; 2048²
+259, 136, 71; 4096² 262; the scene 1024² 219, 123, 72; 2048² 222, 119, 61; 4096² 223 (R =
+9–24, D = 196–251). The constants
+bound every one of
+these from above. ``"fft-periodic"`` makes its whole
 Ewald-summed table once at set-up (8 B/node, transient). Explicit blocks of H_SS (small contact
 sets) also build the whole table over signed offsets, 32 B/node on every
 rank, while they are used.
@@ -60,10 +65,10 @@ from ..errors import InputError
 KINDS = ("dense", "fft", "fft-periodic")
 #: bytes per node held on every rank
 REPLICATED = 50
-#: bytes per node split over the ranks (near full contact the most: 282 B/node on one rank at 4096²);
+#: bytes per node split over the ranks (near full contact the most: 264 B/node on one rank at 1024²);
 #: on one rank also the bound of a solve's own allocations with its fields by rows
 #: (tests/test_normal_distributed.py)
-DISTRIBUTED = 280
+DISTRIBUTED = 265
 
 
 def operator_memory(kind: str, nodes: int, ranks: int = 1) -> int:

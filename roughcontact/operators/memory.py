@@ -47,7 +47,7 @@ gathered, on 4 ranks, 97 and 94 (R = 9–18, D = 262–271); the large-grid scen
 half their rows, w is not held beside gap0 and the coarse grids are held by rows
 (docs/solvers.md, "The symbol by half its rows"): near full contact 1024² 264, 146, 75; 2048²
 259, 136, 71; 4096² 262; the scene 1024² 219, 123, 72; 2048² 222, 119, 61; 4096² 223 (R =
-9–24, D = 196–251). The constants
+9–24, D = 196–251); 8192² on 4 ranks with the surface by rows, 60. The constants
 bound every one of
 these from above. ``"fft-periodic"`` makes its whole
 Ewald-summed table once at set-up (8 B/node, transient). Explicit blocks of H_SS (small contact

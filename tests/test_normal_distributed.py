@@ -48,6 +48,33 @@ def test_derived_geometry_equals_the_whole_grid_computation(comm, shape):
     gap0 = problem.gather(problem.gap0)
     np.testing.assert_allclose(gap0, heights.max() - heights, rtol=0, atol=1e-20)
     np.testing.assert_allclose(problem.gather(problem.x), xy[:, 0], rtol=0, atol=1e-14 * s)
+    np.testing.assert_allclose(problem.gather(problem.y), xy[:, 1], rtol=0, atol=1e-14 * s)
+    problem.destroy()
+
+
+@pytest.mark.parametrize("shape", ["disc", "band", "square"])
+def test_moments_and_the_tilted_interpenetration_by_rows_and_columns(comm, shape):
+    """The problem keeps the coordinates by grid row and column, not by node. The load's moments
+    (Σ p, Σ p y, Σ p x; Eq. 8) summed by rows and columns equal numpy's sums over all nodes to
+    round-off (rtol 1e-13: sums of ~2000 terms of one sign in double, a different order), and the
+    interpenetration w = δz − θx y − θy x − gap0 (Eq. 7) taken by rows and columns is the
+    per-node formula bit for bit (the same operations on the same values), on whole rows
+    (``square``), partial rows (``disc``) and a rank without nodes (``band``, two ranks)."""
+    topo = disc_topography(shape="disc" if shape == "square" else shape)
+    if shape == "square":
+        topo = Topography(np.nan_to_num(topo.heights), topo.spacing)
+    problem = NormalProblem(topo, ROCK, comm, operator="fft")
+    nodes = np.argwhere(topo.footprint)
+    xy = nodes * topo.spacing - problem.centroid
+    forces = np.random.default_rng(11).random(nodes.shape[0])
+    mine = forces[problem.start:problem.stop]
+    expected = [forces.sum(), forces @ xy[:, 1], forces @ xy[:, 0]]
+    np.testing.assert_allclose(problem.allsum(problem.moments(mine)), expected, rtol=1e-13)
+    rigid = np.array([2e-6, 3e-4, -5e-4])
+    x, y = xy[problem.start:problem.stop, 0], xy[problem.start:problem.stop, 1]
+    per_node = rigid[0] - rigid[1] * y - rigid[2] * x - problem.gap0
+    assert np.array_equal(problem.interpenetration(rigid), per_node)
+    assert np.array_equal(problem.interpenetration(np.array([2e-6, 0.0, 0.0])), 2e-6 - problem.gap0)
     problem.destroy()
 
 
@@ -92,7 +119,7 @@ def test_a_solve_allocates_within_the_memory_estimates_share_of_one_rank(scene):
     allocate at most DISTRIBUTED B per node on one rank. Traced allocations (tracemalloc:
     deterministic, unlike the resident set) of set-up and a nested solve at 256², one rank:
     near full contact (fractal dimension 2.5 at 1 E*, 86 % of the nodes in the free set, the
-    scene that takes the most) 229 B/node, the large-grid scene (2 %) 205. When each iteration's
+    scene that takes the most) 209 B/node, the large-grid scene (2 %) 185. When each iteration's
     vectors of the set's size were still held through the next products, the same solves took
     332 and 268: near full contact above it (DISTRIBUTED 265). Run on each rank alone."""
     from mpi4py import MPI

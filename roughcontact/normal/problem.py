@@ -75,9 +75,11 @@ class NormalProblem(Collective):
         # the centroid from integer sums: exact, so the same bits on any number of ranks
         index_sums = np.array(comm.allreduce(nodes.sum(axis=0, dtype=np.int64)), dtype=float)
         self.centroid = index_sums * s / self.size
-        self.x = nodes[:, 0] * s - self.centroid[0]
-        self.y = nodes[:, 1] * s - self.centroid[1]
         del nodes
+        # the coordinates by grid row (x) and by grid column (y): a node's are its row's and its
+        # column's (Eq. 8), so no array of the nodes' size is held for them
+        self._x_rows = np.arange(*layout.rows) * s - self.centroid[0]
+        self._y_columns = np.arange(layout.shape[1]) * s - self.centroid[1]
         heights = topography.local_rows(layout.rows)[0][layout.local_mask]
         top, negative_bottom = self.allmax(np.array([heights.max(initial=-np.inf),
                                                      -heights.min(initial=np.inf)]))
@@ -85,17 +87,42 @@ class NormalProblem(Collective):
         self.top_height = float(top)                                  # max Δh on the footprint
         # the scale of heights, used to make gap tolerances relative
         self.height_range = float(top + negative_bottom) if self.size > 1 else 0.0
-        self._extent = float(self.allmax(max(np.abs(self.x).max(initial=0.0), np.abs(self.y).max(initial=0.0))))
+        x, y = self.x, self.y
+        self._extent = float(self.allmax(max(np.abs(x).max(initial=0.0), np.abs(y).max(initial=0.0))))
+        del x, y
         self._hull = None
 
     @property
     def nodes(self) -> np.ndarray:
         """(i, j) grid indices of this rank's nodes, in the order of the unknowns (int32), made
-        when asked: 8 B per node that every rank held for the few reads of a solver's set-up. The
-        coordinates ``x`` and ``y`` stay held: every solve reads them (Eqs. 7-8), and made there
-        they took fresh pages in every solve (about 6 000 more page faults in a repeated 1024²
-        solve, docs/solvers.md)."""
+        when asked: 8 B per node that every rank held for the few reads of a solver's set-up."""
         return self.flexibility.layout.local_nodes()
+
+    @property
+    def x(self) -> np.ndarray:
+        """x (m, from the footprint's centroid) of this rank's nodes, made when asked (8 B per
+        node). What every solve needs of the coordinates, the interpenetration w (Eq. 7) and the
+        load's moments, is taken from the rows' and columns' coordinates instead
+        (:meth:`interpenetration`, :meth:`moments`): made in every solve, node arrays of them took
+        fresh pages each time (about 6 000 more page faults in a repeated 1024² solve)."""
+        return self._by_node(self._x_rows[:, None])
+
+    @property
+    def y(self) -> np.ndarray:
+        """y (m, from the footprint's centroid) of this rank's nodes, made when asked (as :attr:`x`)."""
+        return self._by_node(self._y_columns[None, :])
+
+    def _by_node(self, rows_by_columns: np.ndarray) -> np.ndarray:
+        """This rank's nodes' values of a field given by rows and columns (broadcast to the slab)."""
+        layout = self.flexibility.layout
+        field = np.broadcast_to(rows_by_columns, layout.local_mask.shape)     # a read-only view
+        return field.copy().reshape(-1) if layout.whole_rows else field[layout.local_mask]
+
+    def moments(self, values: np.ndarray) -> np.ndarray:
+        """(Σ v, Σ v y, Σ v x) over this rank's nodes of nodal ``values`` (partial sums: allsum them),
+        by grid rows and columns: Σ v x = Σ_rows x_row Σ_row v, without the nodes' coordinates."""
+        slab = self.flexibility.slab(values)
+        return np.array([values.sum(), slab.sum(axis=0) @ self._y_columns, slab.sum(axis=1) @ self._x_rows])
 
     @property
     def operator(self):
@@ -136,7 +163,11 @@ class NormalProblem(Collective):
     def interpenetration(self, rigid: np.ndarray) -> np.ndarray:
         """w = C r − gap0 on the local nodes, for r = (δz, θx, θy) (Eq. 7)."""
         approach, theta_x, theta_y = np.asarray(rigid, dtype=float)
-        return approach - theta_x * self.y - theta_y * self.x - self.gap0
+        if theta_x == 0.0 and theta_y == 0.0:
+            return approach - self.gap0
+        # the same operations per node as on the nodes' coordinates, on the rows' and columns'
+        tilted = (approach - theta_x * self._y_columns)[None, :] - theta_y * self._x_rows[:, None]
+        return self.flexibility.layout.from_slab(tilted) - self.gap0
 
     def allsum(self, local) -> np.ndarray:
         """Sum over ranks of a local partial sum (same bits on every rank)."""

@@ -182,7 +182,7 @@ class NormalSolver(Collective):
         rows = tuple(pb.flexibility.layout.rows)
         force, contact, gaps = pb.to_rows(pressure), pb.to_rows(active, False), pb.to_rows(gaps, np.nan)
         n_contact = int(pb.allsum(np.count_nonzero(active)))
-        moments = pb.allsum(np.array([pressure.sum(), pressure @ pb.y, pressure @ pb.x]))
+        moments = pb.allsum(pb.moments(pressure))
         load = float(moments[0])
         if load > 0.0:
             centroid = (pb.centroid[0] + moments[2] / load, pb.centroid[1] + moments[1] / load)

@@ -152,8 +152,12 @@ class Flexibility:
             x.destroy()
             y.destroy()
             return out
-        slab = self.layout.to_slab(values, out=self._slab)
-        return self._nodal(self.convolution.apply(slab, single))
+        return self._nodal(self.convolution.apply(self.slab(values), single))
+
+    def slab(self, values: np.ndarray) -> np.ndarray:
+        """This rank's grid rows of nodal ``values``, zero off the footprint: a view where the rows
+        are whole, else the operator's own scratch slab (overwritten by the next call or product)."""
+        return self.layout.to_slab(values, out=self._slab)
 
     def product_at(self, values: np.ndarray, nodes: np.ndarray, single: bool = False) -> np.ndarray:
         """H x on this rank's nodes for x equal to ``values`` on this rank's ``nodes`` (local

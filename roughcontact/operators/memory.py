@@ -44,10 +44,11 @@ and the problem makes its nodes' indices when asked (docs/solvers.md, "Vectors l
 have served"): near full contact 1024² 280, 147, 84; 2048² 280, 144, 77; 4096² on one rank 282;
 gathered, on 4 ranks, 97 and 94 (R = 9–18, D = 262–271); the large-grid scene 1024² 237, 132,
 77; 2048² 238, 130, 68; 4096² 240; gathered, on 4 ranks, 90 and 84. Since the FFT symbols keep
-half their rows, w is not held beside gap0 and the coarse grids are held by rows
-(docs/solvers.md, "The symbol by half its rows"): near full contact 1024² 264, 146, 75; 2048²
-259, 136, 71; 4096² 262; the scene 1024² 219, 123, 72; 2048² 222, 119, 61; 4096² 223 (R =
-9–24, D = 196–251); 8192² on 4 ranks with the surface by rows, 60. The constants
+half their rows, w is not held beside gap0, the coarse grids are held by rows and the coordinates
+by rows and columns (docs/solvers.md, "The symbol by half its rows"): near full contact 1024²
+246, 127, 73; 2048² 252, 123, 64; the scene 1024² 201, 112, 66; 2048² 200, 108, 56 (R =
+−0.5 to 22.1, D = 179–252); with the first two alone 4096² 262 and 223 on one rank, and 8192² on 4 ranks
+with the surface by rows, 60. The constants
 bound every one of
 these from above. ``"fft-periodic"`` makes its whole
 Ewald-summed table once at set-up (8 B/node, transient). Explicit blocks of H_SS (small contact
@@ -65,7 +66,7 @@ from ..errors import InputError
 KINDS = ("dense", "fft", "fft-periodic")
 #: bytes per node held on every rank
 REPLICATED = 50
-#: bytes per node split over the ranks (near full contact the most: 264 B/node on one rank at 1024²);
+#: bytes per node split over the ranks (near full contact the most: 262-264 B/node on one rank);
 #: on one rank also the bound of a solve's own allocations with its fields by rows
 #: (tests/test_normal_distributed.py)
 DISTRIBUTED = 265

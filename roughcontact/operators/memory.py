@@ -46,9 +46,9 @@ gathered, on 4 ranks, 97 and 94 (R = 9–18, D = 262–271); the large-grid scen
 77; 2048² 238, 130, 68; 4096² 240; gathered, on 4 ranks, 90 and 84. Since the FFT symbols keep
 half their rows, w is not held beside gap0, the coarse grids are held by rows and the coordinates
 by rows and columns (docs/solvers.md, "The symbol by half its rows"): near full contact 1024²
-246, 127, 73; 2048² 252, 123, 64; the scene 1024² 201, 112, 66; 2048² 200, 108, 56 (R =
-−0.5 to 22.1, D = 179–252); with the first two alone 4096² 262 and 223 on one rank, and 8192² on 4 ranks
-with the surface by rows, 60. The constants
+246, 127, 73; 2048² 252, 123, 64; 4096² on one rank 236; the scene 1024² 201, 112, 66; 2048²
+200, 108, 56; 4096² 200 (R = −0.5 to 22.1, D = 179–252); 8192² on 4 ranks with the surface by
+rows (without the coordinates by rows and columns), 60. The constants
 bound every one of
 these from above. ``"fft-periodic"`` makes its whole
 Ewald-summed table once at set-up (8 B/node, transient). Explicit blocks of H_SS (small contact
@@ -66,7 +66,7 @@ from ..errors import InputError
 KINDS = ("dense", "fft", "fft-periodic")
 #: bytes per node held on every rank
 REPLICATED = 50
-#: bytes per node split over the ranks (near full contact the most: 262-264 B/node on one rank);
+#: bytes per node split over the ranks (near full contact the most: 252 B/node on one rank at 2048²);
 #: on one rank also the bound of a solve's own allocations with its fields by rows
 #: (tests/test_normal_distributed.py)
 DISTRIBUTED = 265

@@ -87,9 +87,10 @@ class NormalProblem(Collective):
         self.top_height = float(top)                                  # max Δh on the footprint
         # the scale of heights, used to make gap tolerances relative
         self.height_range = float(top + negative_bottom) if self.size > 1 else 0.0
-        x, y = self.x, self.y
-        self._extent = float(self.allmax(max(np.abs(x).max(initial=0.0), np.abs(y).max(initial=0.0))))
-        del x, y
+        # the farthest row and column that hold a node of this rank
+        mask = layout.local_mask
+        self._extent = float(self.allmax(max(np.abs(self._x_rows[mask.any(axis=1)]).max(initial=0.0),
+                                             np.abs(self._y_columns[mask.any(axis=0)]).max(initial=0.0))))
         self._hull = None
 
     @property

@@ -253,7 +253,7 @@ class SlabConvolution:
         mirrored = symbol_columns[half:]
         if mirrored.size:
             scale = float(np.abs(symbol_columns).max())
-            odd = float(np.abs(mirrored - symbol_columns[self.lengths[0] - half:0:-1]).max())
+            odd = float(np.abs(mirrored - self._mirror(symbol_columns)).max())
             if not odd <= EVEN_TOLERANCE * scale:
                 raise ValueError(f"the symbol is not even in kx (rows k and Lx - k differ by {odd:.3e} "
                                  f"of a largest value {scale:.3e}): the kernel must be even")
@@ -265,14 +265,18 @@ class SlabConvolution:
         """The rows of the symbol kept: kx = 0 … Lx // 2; row Lx − k is row k's mirror."""
         return self.lengths[0] // 2 + 1
 
+    def _mirror(self, rows: np.ndarray) -> np.ndarray:
+        """The rows kx = Lx // 2 + 1 … Lx − 1 of an even symbol from its rows kept (or from all of
+        them): rows Lx − kx, a view with the rows reversed."""
+        return rows[self.lengths[0] - self._half_rows:0:-1]
+
     @property
     def symbol(self) -> np.ndarray | None:
         """The symbol on this rank's columns, all Lx rows (a new array made from the rows kept;
         None before it is set)."""
         if self._half is None:
             return None
-        half = self._half_rows
-        return np.concatenate([self._half, self._half[self.lengths[0] - half:0:-1]])
+        return np.concatenate([self._half, self._mirror(self._half)])
 
     def release_symbol(self) -> None:
         """Forget the symbol (an owner that keeps symbols of its own, :mod:`.shear`)."""
@@ -350,15 +354,15 @@ class SlabConvolution:
         pairs by the symbol's values each written twice: complex64 times a float32 symbol
         converted each value on the fly, 1.3–1.4 times as long (a 2048² padded product's 4096 × 2049
         spectrum: 15.2 and 15.4 against 11.7 and 11.1 ms, medians of 11)."""
-        half = self._half_rows
-        if single and spectrum.flags.c_contiguous:
+        if single:
             if self._single_half is None:
                 self._single_half = np.repeat(self._half.astype(np.float32), 2, axis=1)
+            # the transforms' spectra are contiguous along their columns, which the view needs
             symbol, scaled = self._single_half, spectrum.view(np.float32)
         else:
-            symbol, scaled = (self._half.astype(np.float32) if single else self._half), spectrum
-        scaled[:half] *= symbol
-        scaled[half:] *= symbol[self.lengths[0] - half:0:-1]
+            symbol, scaled = self._half, spectrum
+        scaled[:self._half_rows] *= symbol
+        scaled[self._half_rows:] *= self._mirror(symbol)
         return self.backward(spectrum, crop)
 
     def forward(self, field: np.ndarray, single: bool = False) -> np.ndarray:

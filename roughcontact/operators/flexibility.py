@@ -29,7 +29,7 @@ from petsc4py import PETSc
 
 from ..errors import InputError
 from .convolution import SlabConvolution
-from .kernel import kernel_block, offset_table, punch_kernel
+from .kernel import kernel_block, mirrored_kernel, punch_block, punch_kernel
 from .layout import NodeLayout
 from .memory import KINDS
 
@@ -39,6 +39,12 @@ from .memory import KINDS
 #: an explicit block at every size took 2.5 times longer at 129²)
 EXPLICIT_RATIO = 16.0
 EXPLICIT_BYTES = 256 * 2**20
+#: explicit blocks read Eq. 10 from the table over signed offsets (32 B per node of the grid, held on
+#: every rank) while it takes at most this; on larger grids they evaluate it entry by entry
+#: (:func:`~.kernel.punch_block`, the same bits), so that no rank holds an array of the grid's size
+#: for them: the table and the whole Eq. 10 table it was made from had stayed on every rank after a
+#: first small contact set, 40 B per node (a free-rotation solve at light load, 1024²)
+OFFSET_TABLE_BYTES = 16 * 2**20
 
 
 class Flexibility:
@@ -126,8 +132,8 @@ class Flexibility:
     @property
     def table(self) -> np.ndarray | None:
         """The whole Eq. 10 table K[|Δi|, |Δj|] (the periodic operator: its kernel on one period),
-        built on first use — by the dense matrix and explicit blocks only, as it holds N entries on
-        every rank; None for a user's Mat."""
+        built on first use and kept — by the dense matrix and the periodic operator's explicit
+        blocks only, as it holds N entries on every rank; None for a user's Mat."""
         if self._table is None and self.convolution is not None:
             self._table = self._whole_table()
         return self._table
@@ -245,19 +251,30 @@ class Flexibility:
         return restricted_operator(self, active)
 
     def _explicit_block(self, active: np.ndarray, count: int) -> PETSc.Mat:
-        """H_SS gathered from the kernel table, row-distributed MATDENSE (C-ordered columns)."""
-        if self._offsets is None:
-            self._offsets = offset_table(self.table, self.periodic)
+        """H_SS from Eq. 10, row-distributed MATDENSE (C-ordered columns)."""
         local_nodes = self.layout.local_nodes()[active]
         all_nodes = np.concatenate(self.comm.allgather(local_nodes))
         # H_SS is symmetric: row j of this C-ordered array is column j of the local rows
-        columns = kernel_block(self._offsets, self.shape, all_nodes, local_nodes, periodic=self.periodic)
+        columns = self._entries(all_nodes, local_nodes)
         local = local_nodes.shape[0]
         mat = PETSc.Mat().createDense(((local, count), (local, count)), array=columns.T, comm=self.comm)
         mat.setOption(PETSc.Mat.Option.SYMMETRIC, True)
         mat.setOption(PETSc.Mat.Option.SPD, True)
         mat.assemble()
         return mat
+
+    def _entries(self, row_nodes: np.ndarray, column_nodes: np.ndarray) -> np.ndarray:
+        """H between two sets of (i, j) nodes: read from the table over signed offsets while it
+        takes at most OFFSET_TABLE_BYTES (kept for the next block), else Eq. 10 at each entry;
+        the periodic operator reads its Ewald-summed period (kept: a sum too costly to repeat)."""
+        if self.periodic:
+            return kernel_block(self.table, self.shape, row_nodes, column_nodes, periodic=True)
+        nx, ny = self.shape
+        if 8 * (2 * nx - 1) * (2 * ny - 1) > OFFSET_TABLE_BYTES:
+            return punch_block(self.spacing, self.compliance, row_nodes, column_nodes)
+        if self._offsets is None:
+            self._offsets = mirrored_kernel(self._table if self._table is not None else self._whole_table())
+        return kernel_block(self._offsets, self.shape, row_nodes, column_nodes)
 
     def destroy(self) -> None:
         """Free the PETSc Mat (collective)."""

@@ -15,7 +15,9 @@ On a regular grid H_ij depends only on (|Δi|, |Δj|): the kernel is tabulated
 once on the grid's offsets (:func:`punch_kernel`). Blocks of H are read from
 that table: whole rows as windows of the table mirrored to signed offsets
 (:func:`influence_rows`, a strided copy per row), or the entries between two
-sets of nodes (:func:`kernel_block`, a gather).
+sets of nodes (:func:`kernel_block`, a gather). Where the table would be too
+large to hold on every rank, the entries between two sets of nodes are the
+formula evaluated at their offsets (:func:`punch_block`), the same bits.
 """
 from __future__ import annotations
 
@@ -26,13 +28,19 @@ def punch_kernel(shape: tuple[int, int], spacing: float, compliance: float,
                  rows: np.ndarray | None = None) -> np.ndarray:
     """Table K[|Δi|, |Δj|] of Eq. 10 for all offsets of a grid of ``shape``; ``rows``: only the
     rows |Δi| listed (a distributed operator computes the rows of its own slab, not the table)."""
+    di = (np.arange(shape[0]) if rows is None else np.asarray(rows))[:, None]
+    return punch_entries(di, np.arange(shape[1])[None, :], spacing, compliance)
+
+
+def punch_entries(di: np.ndarray, dj: np.ndarray, spacing: float, compliance: float,
+                  out: np.ndarray | None = None) -> np.ndarray:
+    """Eq. 10 at integer offsets (|Δi|, |Δj|) (arrays broadcast together): the table's formula entry
+    by entry, so the same bits as :func:`punch_kernel`'s entries."""
     a = spacing / 2.0
-    di = (np.arange(shape[0]) if rows is None else np.asarray(rows))[:, None] * spacing
-    dj = np.arange(shape[1])[None, :] * spacing
-    r = np.hypot(di, dj)
+    r = np.hypot(di * spacing, dj * spacing)
     with np.errstate(divide="ignore"):
         ratio = np.where(r > a, a / np.where(r > 0, r, 1.0), 1.0)
-    return compliance / (2.0 * np.pi * a) * np.arcsin(ratio)
+    return np.multiply(compliance / (2.0 * np.pi * a), np.arcsin(ratio, out=ratio), out=out)
 
 
 def mirrored_kernel(kernel: np.ndarray) -> np.ndarray:
@@ -101,36 +109,60 @@ def influence_rows(kernel: np.ndarray, footprint: np.ndarray, rows: slice,
     return out
 
 
-def offset_table(kernel: np.ndarray, periodic: bool = False) -> np.ndarray:
-    """The kernel over signed offsets, as used by :func:`kernel_block`.
+#: entries of a block made at once: bounds the block's index and formula temporaries (about 2 MiB
+#: each) whatever the block's size
+BLOCK_CHUNK = 1 << 18
 
-    Non-periodic: the mirrored table (:func:`mirrored_kernel`), (2nx − 1) × (2ny − 1),
-    entry (nx − 1 + Δi, ny − 1 + Δj). Periodic: the period tiled twice along
-    each axis, 2nx × 2ny, entry (nx + Δi, ny + Δj) for Δi ∈ (−nx, nx).
-    """
-    return np.tile(kernel, (2, 2)) if periodic else mirrored_kernel(kernel)
+
+def _row_chunks(rows: int, columns: int, chunk: int):
+    """(start, stop) of the row ranges of a (rows, columns) block of about ``chunk`` entries each."""
+    step = max(1, chunk // max(columns, 1))
+    return ((start, min(rows, start + step)) for start in range(0, rows, step))
 
 
 def kernel_block(table: np.ndarray, shape: tuple[int, int], row_nodes: np.ndarray, column_nodes: np.ndarray,
-                 periodic: bool = False, out: np.ndarray | None = None, chunk: int = 1 << 22) -> np.ndarray:
-    """H between two node sets, H[a, b] = K(i_a − i_b, j_a − j_b) (Eq. 10), from :func:`offset_table`.
+                 periodic: bool = False, out: np.ndarray | None = None, chunk: int = BLOCK_CHUNK) -> np.ndarray:
+    """H between two node sets, H[a, b] = K(i_a − i_b, j_a − j_b) (Eq. 10), read from a table.
 
-    The flat index of an entry in the offset table is a row term minus a
-    column term, so the (m, n) block is one integer subtraction and one
-    gather per entry, in chunks of about ``chunk`` entries.
+    Non-periodic: ``table`` is the table over signed offsets (:func:`mirrored_kernel`, (2nx − 1) ×
+    (2ny − 1)), in which the flat index of an entry is a row term minus a column term: one
+    integer subtraction and one gather per entry. Periodic: ``table`` is the kernel on one period
+    (nx × ny), read at the offsets modulo the period. In chunks of about ``chunk`` entries.
     """
     nx, ny = shape
-    width = table.shape[1]
-    base = (nx if periodic else nx - 1) * width + (ny if periodic else ny - 1)
-    rows = base + row_nodes[:, 0].astype(np.int64) * width + row_nodes[:, 1]
-    columns = column_nodes[:, 0].astype(np.int64) * width + column_nodes[:, 1]
-    flat = table.ravel()
-    m, n = rows.size, columns.size
     if out is None:
-        out = np.empty((m, n))
-    step = max(1, chunk // max(n, 1))
-    for start in range(0, m, step):
-        stop = min(m, start + step)
+        out = np.empty((row_nodes.shape[0], column_nodes.shape[0]))
+    flat = table.ravel()
+    if periodic:
+        i_rows, j_rows = (row_nodes[:, k].astype(np.int64) for k in (0, 1))
+        i_columns, j_columns = (column_nodes[:, k].astype(np.int64) for k in (0, 1))
+        for start, stop in _row_chunks(out.shape[0], out.shape[1], chunk):
+            index = np.mod(i_rows[start:stop, None] - i_columns[None, :], nx)
+            index *= ny
+            index += np.mod(j_rows[start:stop, None] - j_columns[None, :], ny)
+            np.take(flat, index, out=out[start:stop], mode="clip")
+        return out
+    width = table.shape[1]
+    rows = (nx - 1) * width + (ny - 1) + row_nodes[:, 0].astype(np.int64) * width + row_nodes[:, 1]
+    columns = column_nodes[:, 0].astype(np.int64) * width + column_nodes[:, 1]
+    for start, stop in _row_chunks(out.shape[0], out.shape[1], chunk):
         # mode="clip": the indices are valid by construction, and numpy buffers take(out=) with "raise"
         np.take(flat, rows[start:stop, None] - columns[None, :], out=out[start:stop], mode="clip")
+    return out
+
+
+def punch_block(spacing: float, compliance: float, row_nodes: np.ndarray, column_nodes: np.ndarray,
+                out: np.ndarray | None = None, chunk: int = BLOCK_CHUNK) -> np.ndarray:
+    """H between two node sets from Eq. 10 evaluated at each entry's offsets (:func:`punch_entries`):
+    the entries :func:`kernel_block` reads from the mirrored table, bit for bit, without a table
+    of the grid's size (about four times the time of the reads). In chunks of about ``chunk``
+    entries."""
+    if out is None:
+        out = np.empty((row_nodes.shape[0], column_nodes.shape[0]))
+    i_rows, j_rows = (row_nodes[:, k].astype(np.int64) for k in (0, 1))
+    i_columns, j_columns = (column_nodes[:, k].astype(np.int64) for k in (0, 1))
+    for start, stop in _row_chunks(out.shape[0], out.shape[1], chunk):
+        di = np.abs(i_rows[start:stop, None] - i_columns[None, :])
+        dj = np.abs(j_rows[start:stop, None] - j_columns[None, :])
+        punch_entries(di, dj, spacing, compliance, out=out[start:stop])
     return out

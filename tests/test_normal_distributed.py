@@ -58,7 +58,8 @@ def test_moments_and_the_tilted_interpenetration_by_rows_and_columns(comm, shape
     (Σ p, Σ p y, Σ p x; Eq. 8) summed by rows and columns equal numpy's sums over all nodes to
     round-off (rtol 1e-13: sums of ~2000 terms of one sign in double, a different order), and the
     interpenetration w = δz − θx y − θy x − gap0 (Eq. 7) taken by rows and columns is the
-    per-node formula bit for bit (the same operations on the same values), on whole rows
+    per-node formula bit for bit (the same operations on the same values), as is C = [1, −y, −x]
+    at chosen nodes, on whole rows
     (``square``), partial rows (``disc``) and a rank without nodes (``band``, two ranks)."""
     topo = disc_topography(shape="disc" if shape == "square" else shape)
     if shape == "square":
@@ -75,6 +76,11 @@ def test_moments_and_the_tilted_interpenetration_by_rows_and_columns(comm, shape
     per_node = rigid[0] - rigid[1] * y - rigid[2] * x - problem.gap0
     assert np.array_equal(problem.interpenetration(rigid), per_node)
     assert np.array_equal(problem.interpenetration(np.array([2e-6, 0.0, 0.0])), 2e-6 - problem.gap0)
+    # C = [1, −y, −x] (Eq. 8) at some of the rank's nodes, by index and by mask: the coordinates' bits
+    chosen = np.random.default_rng(12).random(x.size) < 0.3
+    columns = np.stack([np.ones(x.size), -y, -x], axis=1)[chosen]
+    assert np.array_equal(problem.columns_at(chosen), columns)
+    assert np.array_equal(problem.columns_at(np.flatnonzero(chosen)), columns)
     problem.destroy()
 
 

@@ -38,6 +38,9 @@ class Springs:
     def interpenetration(self, rigid):
         return self.columns @ rigid - self.gap0
 
+    def moments(self, values):
+        return np.array([values.sum(), values @ self.y, values @ self.x])
+
     @staticmethod
     def allsum(values):
         return np.asarray(values, dtype=float)

@@ -213,7 +213,7 @@ class ActiveSetSolver(NormalSolver):
         if pb.allsum(active.sum()) == 0:
             return np.zeros((n_free, n_free)), 0
         self.inner.set_active(active)
-        cols = pb.columns[active][:, free]
+        cols = pb.columns_at(active)[:, free]
         basis = np.empty_like(cols)
         its = 0
         for j, k in enumerate(free):

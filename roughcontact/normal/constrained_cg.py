@@ -679,7 +679,7 @@ class ConstrainedCGSolver(NormalSolver):
                                         edge_share=self.settings.edge_share)
         self._krylov.set_active(active)
         nodes = np.flatnonzero(active)
-        columns = pb.columns[nodes]
+        columns = pb.columns_at(nodes)
         guess = np.zeros_like(columns)
         if self._basis is not None:                    # the last step's solutions where S kept its nodes
             _, here, there = np.intersect1d(nodes, self._basis[0], assume_unique=True, return_indices=True)

@@ -152,10 +152,16 @@ class NormalProblem(Collective):
         """Largest |x| or |y| of a footprint node from the centroid (m); s for a single node."""
         return self._extent or self.topography.spacing
 
-    @property
-    def columns(self) -> np.ndarray:
-        """C = [1, −y, −x] on this rank's nodes (Eq. 8), built when asked (N × 3 values)."""
-        return np.stack([np.ones_like(self.x), -self.y, -self.x], axis=1)
+    def columns_at(self, nodes: np.ndarray) -> np.ndarray:
+        """C = [1, −y, −x] (Eq. 8) at this rank's ``nodes`` (local indices, or a mask over this
+        rank's nodes), from the rows' and columns' coordinates: |nodes| × 3 values, and no array
+        of every node's coordinates (a Hessian of the free rotation on a light load's few contact
+        nodes had made C on all nodes, with x and y, 56 B per node)."""
+        nodes = np.asarray(nodes)
+        layout = self.flexibility.layout
+        positions = layout.slab_positions(np.flatnonzero(nodes) if nodes.dtype == bool else nodes)
+        row, column = np.divmod(positions, layout.shape[1])
+        return np.stack([np.ones(row.size), -self._y_columns[column], -self._x_rows[row]], axis=1)
 
     @property
     def local_size(self) -> int:

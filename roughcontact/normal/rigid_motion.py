@@ -171,7 +171,9 @@ def _evaluate(problem, rigid, free, outer, loads, evaluate, needed):
     """
     state, rigid = evaluate(rigid, needed)
     w = problem.interpenetration(rigid)
-    sums = problem.allsum(np.append(problem.columns[:, outer].T @ state.pressure, 0.5 * state.pressure @ w))
+    # Cᵀp = (Σp, −Σ y p, −Σ x p) (Eq. 8), from the moments by rows and columns
+    loaded = problem.moments(state.pressure) * np.array([1.0, -1.0, -1.0])
+    sums = problem.allsum(np.append(loaded[outer], 0.5 * state.pressure @ w))
     force = sums[:-1] - loads[outer]
     phi = float(sums[-1] - 0.5 * state.slack - rigid[free] @ loads[free])
     return state, rigid, phi, force

@@ -29,7 +29,7 @@ from petsc4py import PETSc
 
 from ..errors import InputError
 from .convolution import SlabConvolution
-from .kernel import kernel_block, mirrored_kernel, punch_block, punch_kernel
+from .kernel import kernel_block, punch_block, punch_kernel
 from .layout import NodeLayout
 from .memory import KINDS
 
@@ -39,12 +39,13 @@ from .memory import KINDS
 #: an explicit block at every size took 2.5 times longer at 129²)
 EXPLICIT_RATIO = 16.0
 EXPLICIT_BYTES = 256 * 2**20
-#: explicit blocks read Eq. 10 from the table over signed offsets (32 B per node of the grid, held on
-#: every rank) while it takes at most this; on larger grids they evaluate it entry by entry
-#: (:func:`~.kernel.punch_block`, the same bits), so that no rank holds an array of the grid's size
-#: for them: the table and the whole Eq. 10 table it was made from had stayed on every rank after a
-#: first small contact set, 40 B per node (a free-rotation solve at light load, 1024²)
-OFFSET_TABLE_BYTES = 16 * 2**20
+#: explicit blocks read Eq. 10 from its table (:attr:`Flexibility.table`, 8 B per node of the grid,
+#: kept on every rank) while the table takes at most this (grids up to 2048²); on larger grids they
+#: evaluate it entry by entry (:func:`~.kernel.punch_block`, the same bits, four times the time), so
+#: that no rank holds an array of the grid's size for them. The table mirrored to signed offsets that
+#: they read before, with the table it was made from, had stayed on every rank after a first small
+#: contact set whatever the grid: 40 B per node (a free-rotation solve at light load, 1024²)
+TABLE_BYTES = 32 * 2**20
 
 
 class Flexibility:
@@ -80,7 +81,6 @@ class Flexibility:
         self.compliance = interface.compliance
         self.convolution = SlabConvolution(self.shape, comm, periodic=self.periodic, workers=workers)
         self._table = None
-        self._offsets = None
         r0, r1 = self.layout.rows
         if self.periodic:
             table = self._whole_table()              # the Ewald sum makes the whole period at once
@@ -116,7 +116,7 @@ class Flexibility:
         self.layout = NodeLayout.build(topography, comm)
         self.shape = self.layout.shape
         self.spacing = topography.spacing
-        self.convolution = self._table = self._offsets = self._preconditioner = None
+        self.convolution = self._table = self._preconditioner = None
         self._slab = self._near_field = None
         self.mat = mat
         rows = tuple(mat.getOwnershipRange())
@@ -132,8 +132,8 @@ class Flexibility:
     @property
     def table(self) -> np.ndarray | None:
         """The whole Eq. 10 table K[|Δi|, |Δj|] (the periodic operator: its kernel on one period),
-        built on first use and kept — by the dense matrix and the periodic operator's explicit
-        blocks only, as it holds N entries on every rank; None for a user's Mat."""
+        built on first use and kept — by the dense matrix and by explicit blocks up to
+        TABLE_BYTES, as it holds N entries on every rank; None for a user's Mat."""
         if self._table is None and self.convolution is not None:
             self._table = self._whole_table()
         return self._table
@@ -264,17 +264,12 @@ class Flexibility:
         return mat
 
     def _entries(self, row_nodes: np.ndarray, column_nodes: np.ndarray) -> np.ndarray:
-        """H between two sets of (i, j) nodes: read from the table over signed offsets while it
-        takes at most OFFSET_TABLE_BYTES (kept for the next block), else Eq. 10 at each entry;
-        the periodic operator reads its Ewald-summed period (kept: a sum too costly to repeat)."""
-        if self.periodic:
-            return kernel_block(self.table, self.shape, row_nodes, column_nodes, periodic=True)
-        nx, ny = self.shape
-        if 8 * (2 * nx - 1) * (2 * ny - 1) > OFFSET_TABLE_BYTES:
-            return punch_block(self.spacing, self.compliance, row_nodes, column_nodes)
-        if self._offsets is None:
-            self._offsets = mirrored_kernel(self._table if self._table is not None else self._whole_table())
-        return kernel_block(self._offsets, self.shape, row_nodes, column_nodes)
+        """H between two sets of (i, j) nodes: read from the Eq. 10 table while it takes at most
+        TABLE_BYTES (the periodic operator's Ewald-summed period always: a sum too costly to
+        repeat, made whole at set-up anyway), else Eq. 10 evaluated at each entry."""
+        if self.periodic or 8 * self.shape[0] * self.shape[1] <= TABLE_BYTES:
+            return kernel_block(self.table, self.shape, row_nodes, column_nodes, periodic=self.periodic)
+        return punch_block(self.spacing, self.compliance, row_nodes, column_nodes)
 
     def destroy(self) -> None:
         """Free the PETSc Mat (collective)."""

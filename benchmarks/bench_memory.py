@@ -2,7 +2,9 @@
 """Per-rank memory of one normal solve on 1, 2, 4 … ranks, against 1/ranks and the estimate.
 
 The large-grid scene (benchmarks.common.scene_surface: Hurst 0.8, unit rms
-slope, mean pressure 0.01 E*, rotation fixed), or with ``--scenes full`` near
+slope, mean pressure 0.01 E*, rotation fixed; ``--free-rotation``: found from
+zero moments, as a study's default, whose Newton takes Hessians through
+explicit contact-set blocks where the set is small), or with ``--scenes full`` near
 full contact (fractal dimension 2.5 at 1 E*, 86 % of the nodes in contact;
 benchmarks/bench_products.py's two scenes), the FFT operator and the
 constrained CG with its defaults (mixed precision, coarse-to-fine start).
@@ -27,7 +29,7 @@ The solve keeps its result's fields on each rank's own rows (``gather=False``,
 would; ``--gather`` measures the default, whole fields on every rank (25 B per node more).
 
     python -m benchmarks.bench_memory [--sizes 1024 2048] [--ranks 1 2 4] [--scenes scene full] [--gather]
-        [--by-rows] [--output results/bench_memory.json]
+        [--by-rows] [--free-rotation] [--output results/bench_memory.json]
 """
 from __future__ import annotations
 
@@ -88,7 +90,7 @@ def worker(args) -> None:
         base = proc_status("VmRSS")
         base_max = comm.allreduce(base, op=MPI.MAX)
         problem = scene_problem(topography, comm)
-        result = solve_scene(problem, PRESSURES[args.scene], gather=args.gather)
+        result = solve_scene(problem, PRESSURES[args.scene], gather=args.gather, free_rotation=args.free_rotation)
         problem.destroy()
         peak = comm.allreduce(proc_status("VmHWM") - base, op=MPI.MAX)
         held = comm.allreduce(proc_status("VmRSS") - base, op=MPI.MAX)
@@ -99,6 +101,7 @@ def worker(args) -> None:
             "held_after_bytes_per_rank": held, "held_after_per_node": held / nodes,
             "estimate_bytes_per_rank": operator_memory("fft", nodes, comm.Get_size()),
             "peak_reset": bool(reset), "gathered": args.gather, "by_rows": args.by_rows,
+            "free_rotation": args.free_rotation,
             "topography_bytes_per_rank": topography_bytes, "resident_before_bytes_per_rank": base_max, "iterations": result.linear_iterations,
             "residual": result.residual})
     write_rows(comm, rows, args.json)
@@ -137,12 +140,15 @@ def main() -> None:
     parser.add_argument("--by-rows", action="store_true",
                         help="each rank holds only its rows of the topography (TopographyRows, scattered "
                              "from rank 0) instead of the whole one")
+    parser.add_argument("--free-rotation", action="store_true",
+                        help="the rotation found from zero moments (a study's default) instead of fixed")
     args = parser.parse_args()
     if args.worker:
         return worker(args)
     # one process per size and rank count: memory freed by an earlier solve stays in the process
     # (the allocator keeps it), which would hide part of the next one's peak
-    extra = (["--gather"] if args.gather else []) + (["--by-rows"] if args.by_rows else [])
+    extra = [flag for flag, on in (("--gather", args.gather), ("--by-rows", args.by_rows),
+                                   ("--free-rotation", args.free_rotation)) if on]
     rows = [row for scene in args.scenes for n in args.sizes
             for row in run_on_ranks(__spec__.name, args.ranks, ["--sizes", str(n), "--scene", scene, *extra])]
     save_json({"rows": rows, "report": report(rows)}, args.output)

@@ -146,15 +146,18 @@ def scene_problem(topography, comm):
     return NormalProblem(topography, Interface(Material(1.0, 0.0)), comm, operator="fft")
 
 
-def solve_scene(problem, pressure: float = SCENE_PRESSURE, settings=None, gather: bool = True):
+def solve_scene(problem, pressure: float = SCENE_PRESSURE, settings=None, gather: bool = True,
+                free_rotation: bool = False):
     """One load-controlled CG solve of ``problem`` at ``pressure`` × its nominal area, rotation
-    fixed (``settings``: a CGSettings, default the solver's; ``gather=False``: each rank keeps its
-    own rows of the result's fields)."""
+    fixed (``free_rotation``: found from zero moments, as a study's default; ``settings``: a
+    CGSettings, default the solver's; ``gather=False``: each rank keeps its own rows of the
+    result's fields)."""
     from roughcontact.normal import make_solver
 
     options = {} if settings is None else {"settings": settings}
     with make_solver(problem, "cg", **options) as solver:
-        return solver.solve_load(pressure * problem.topography.nominal_area, rotation=(0.0, 0.0), gather=gather)
+        return solver.solve_load(pressure * problem.topography.nominal_area,
+                                 rotation=None if free_rotation else (0.0, 0.0), gather=gather)
 
 
 def sweep_scene(n: int):

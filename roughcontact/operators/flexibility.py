@@ -31,21 +31,7 @@ from ..errors import InputError
 from .convolution import SlabConvolution
 from .kernel import kernel_block, punch_block, punch_kernel
 from .layout import NodeLayout
-from .memory import KINDS
-
-#: an explicit H_SS is used while |S|² ≤ EXPLICIT_RATIO · Lx · Ly and it fits in EXPLICIT_BYTES
-#: per rank: its product then costs about what an FFT product and the preconditioner save in
-#: iterations (the active set's load sweeps at 65² and 129² were fastest at 16, against 4 and 64;
-#: an explicit block at every size took 2.5 times longer at 129²)
-EXPLICIT_RATIO = 16.0
-EXPLICIT_BYTES = 256 * 2**20
-#: explicit blocks read Eq. 10 from its table (:attr:`Flexibility.table`, 8 B per node of the grid,
-#: kept on every rank) while the table takes at most this (grids up to 2048²); on larger grids they
-#: evaluate it entry by entry (:func:`~.kernel.punch_block`, the same bits, four times the time), so
-#: that no rank holds an array of the grid's size for them. The table mirrored to signed offsets that
-#: they read before, with the table it was made from, had stayed on every rank after a first small
-#: contact set whatever the grid: 40 B per node (a free-rotation solve at light load, 1024²)
-TABLE_BYTES = 32 * 2**20
+from .memory import EXPLICIT_BYTES, EXPLICIT_RATIO, KINDS, TABLE_BYTES
 
 
 class Flexibility:
@@ -223,11 +209,11 @@ class Flexibility:
         return self._near_field or None
 
     # ---------------------------------------------------------------- blocks
-    def explicit_fits(self, count: int) -> bool:
-        """Whether an explicit H_SS of ``count`` nodes is cheaper than FFT products and fits."""
-        lx, ly = self.convolution.lengths
-        per_rank = 8.0 * count * count / self.comm.Get_size()
-        return count * count <= EXPLICIT_RATIO * lx * ly and per_rank <= EXPLICIT_BYTES
+    def explicit_fits(self, count: int, largest: int) -> bool:
+        """Whether an explicit H_SS of ``count`` nodes, ``largest`` of them on one rank, is cheaper
+        than FFT products and fits (:data:`~.memory.EXPLICIT_RATIO`, :data:`~.memory.EXPLICIT_BYTES`:
+        the rank with the most of S holds its rows of the block)."""
+        return count * count <= EXPLICIT_RATIO * self.layout.size and 8.0 * count * largest <= EXPLICIT_BYTES
 
     def block(self, active: np.ndarray, explicit: bool | None = None) -> PETSc.Mat:
         """H_SS for the contact set S (``active``: mask over this rank's nodes), a new Mat.
@@ -241,9 +227,10 @@ class Flexibility:
             sub = self.mat.createSubMatrix(index_set, index_set)
             index_set.destroy()
             return sub
-        count = int(self.comm.allreduce(int(active.sum())))
+        counts = self.comm.allgather(int(active.sum()))
+        count = sum(counts)
         if explicit is None:
-            explicit = self.explicit_fits(count)
+            explicit = self.explicit_fits(count, max(counts))
         if explicit:
             return self._explicit_block(active, count)
         from .fft import restricted_operator

@@ -26,7 +26,18 @@ own, the high-water mark reset after the surface):
   :data:`DISTRIBUTED` bytes per node in all, the most near full contact,
   where the CG's vectors on the free set are nearly N long;
 - ``"dense"`` adds the explicit N × N matrix, 8 N²/ranks bytes, and the
-  C-ordered rows its assembly fills (the same memory, handed to PETSc).
+  C-ordered rows its assembly fills (the same memory, handed to PETSc), and
+  as much again for a contact-set block (PETSc's sub-matrix of its rows);
+- explicit contact-set blocks H_SS (:func:`explicit_block_memory`), which
+  the active set's Krylov solves and the free rotation's Hessian (a study's
+  default) build where the contact set is small, and keep through the next
+  solves: the block, at most 8 · EXPLICIT_RATIO · N bytes and
+  EXPLICIT_BYTES on the rank holding most of S, the Eq. 10 table it reads
+  (at most TABLE_BYTES; the periodic operator's whole period) and a chunk's
+  temporaries — at most 304 MiB per rank (49 MiB at 257², 147 MiB at 513²).
+  With the rotation free, a solve of the large-grid scene took 391 / 305 /
+  280 B/node on one rank at 512² / 1024² / 2048² (``bench_memory
+  --free-rotation``), where the estimate without the blocks gave 315.
 
 Measured with the constrained CG (mixed precision, nested start, fields by rows), peak bytes
 per node per rank on 1, 2, 4 ranks: 1024² 309, 168, 91; 2048² 298, 161, 85; 4096² 286, 150,
@@ -71,6 +82,37 @@ REPLICATED = 50
 #: (tests/test_normal_distributed.py)
 DISTRIBUTED = 265
 
+# Explicit blocks H_SS of small contact sets (the active set's Krylov solves, the free rotation's
+# Hessian; operators/flexibility.py), which a solve may hold beside its vectors:
+#: an explicit H_SS is used while |S|² ≤ EXPLICIT_RATIO · N (N the footprint's nodes): its product
+#: then costs about what an FFT product and the preconditioner save in iterations (the active set's
+#: load sweeps at 65² and 129² were fastest at 64, against 16 and 256; an explicit block at every
+#: size took 2.5 times longer at 129²) ...
+EXPLICIT_RATIO = 64
+#: ... and while the rank with the most of S holds at most EXPLICIT_BYTES of it. A free-rotation
+#: solve at 1024² on a light load (3 810 contact nodes: 116 MB) took 13.4 s with the block explicit
+#: and 17.8 s matrix-free, with 32 MiB
+EXPLICIT_BYTES = 256 * 2**20
+#: the blocks read Eq. 10 from its whole table (8 B per node of the grid, kept on every rank) while
+#: the table takes at most this (grids up to 2048²), and evaluate it entry by entry on larger grids
+#: (the same bits, four times the time), so that no rank holds an array of the grid's size for them
+TABLE_BYTES = 32 * 2**20
+#: the temporaries of a block's chunk of entries (kernel.BLOCK_CHUNK): offsets, distances, ratios
+BLOCK_TEMPORARIES = 8
+
+
+def explicit_block_memory(kind: str, nodes: int, ranks: int = 1) -> int:
+    """Bytes a rank may hold for explicit contact-set blocks, besides the solve's vectors: the block
+    (all of S may lie in one rank's rows), the table it reads and a chunk's temporaries; the
+    dense operator's block is PETSc's sub-matrix of the rank's rows of H."""
+    if kind == "dense":
+        return 8 * nodes * math.ceil(nodes / ranks)
+    from .kernel import BLOCK_CHUNK
+
+    block = min(EXPLICIT_BYTES, 8 * EXPLICIT_RATIO * nodes)
+    table = 8 * nodes if kind == "fft-periodic" else min(8 * nodes, TABLE_BYTES)
+    return block + table + BLOCK_TEMPORARIES * 8 * min(BLOCK_CHUNK, EXPLICIT_RATIO * nodes)
+
 
 def operator_memory(kind: str, nodes: int, ranks: int = 1) -> int:
     """Peak bytes of a normal solve with operator ``kind`` on the busiest rank.
@@ -94,4 +136,4 @@ def operator_memory(kind: str, nodes: int, ranks: int = 1) -> int:
     solve = nodes * (REPLICATED + DISTRIBUTED / ranks)
     if kind == "dense":
         solve += 8 * nodes * math.ceil(nodes / ranks)
-    return int(solve)
+    return int(solve) + explicit_block_memory(kind, nodes, ranks)

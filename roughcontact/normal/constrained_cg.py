@@ -674,9 +674,13 @@ class ConstrainedCGSolver(NormalSolver):
             # the Hessian only shapes the Newton step (its accuracy is set by the inner solves and
             # load_tol): rtol 1e-6 instead of 1e-11 took a 12-load sweep at 65² from 1.9 to 1.3 s;
             # 1e-3 instead of 1e-6 halved these solves' time in a 12-load sweep at 257² with the
-            # same Newton steps, where 1e-2 took more steps (69 evaluations against 61)
+            # same Newton steps, where 1e-2 took more steps (69 evaluations against 61). Its
+            # products in single precision where the CG's are (``mixed``): their ~1e-7 lies far below
+            # 1e-3, and the large-grid scene with the rotation free took the same iterations and
+            # rotation to 12 digits, its Hessians 0.60-0.61 of the time at 1024² and 2048²
             self._krylov = KSPSubsolver(pb.flexibility, prefix="normal_rotation_", rtol=1e-3,
-                                        edge_share=self.settings.edge_share)
+                                        edge_share=self.settings.edge_share,
+                                        single=self.settings.precision == "mixed")
         self._krylov.set_active(active)
         nodes = np.flatnonzero(active)
         columns = pb.columns_at(nodes)

@@ -26,11 +26,13 @@ from .subsolver import ContactSetSubsolver
 
 class FourierPC:
     """Python PC context: z = R_S C⁻¹ R_Sᵀ r − e ∘ r, the Fourier preconditioner of H_SS with its
-    edge correction (:mod:`roughcontact.operators.preconditioner`) on the current contact set."""
+    edge correction (:mod:`roughcontact.operators.preconditioner`) on the current contact set;
+    ``single``: its products in single precision."""
 
-    def __init__(self, flexibility, edge_share: float = EDGE_SHARE):
+    def __init__(self, flexibility, edge_share: float = EDGE_SHARE, single: bool = False):
         self.flexibility = flexibility
         self.edge_share = edge_share
+        self.single = single
         self.nodes: np.ndarray | None = None        # this rank's indices of S
         self.edge: np.ndarray | None = None         # the edge weights on S (None: share 0)
 
@@ -43,12 +45,12 @@ class FourierPC:
         checkerboard, striped, sparse and holed sets (an indefinite one would end the KSP with
         a named ConvergenceError, not a wrong answer)."""
         self.nodes = nodes
-        self.edge = self.flexibility.preconditioner.edge_weights(nodes, share=self.edge_share) \
+        self.edge = self.flexibility.preconditioner.edge_weights(nodes, self.single, self.edge_share) \
             if self.edge_share > 0.0 else None
 
     def apply(self, pc, x, y):
         y.getArray()[:] = self.flexibility.precondition_nodes(x.getArray(readonly=True), self.nodes,
-                                                              edge=self.edge)
+                                                              self.single, self.edge)
 
 
 class KSPSubsolver(ContactSetSubsolver):
@@ -69,14 +71,19 @@ class KSPSubsolver(ContactSetSubsolver):
         plain R_S C⁻¹ R_Sᵀ), e.g. ``-normal_fourier_edge_share 0``.
     edge_share
         The default of that option (the constrained CG passes its own setting).
+    single
+        The products of a matrix-free block and of its preconditioner in single precision (their
+        relative error about 1e-7): for solves far looser than that, as the free rotation's
+        Hessian (rtol 1e-3).
     """
 
     name = "ksp"
 
     def __init__(self, flexibility, prefix: str = "normal_",
                  rtol: float = 1e-11, max_it: int = 10000, options: dict | None = None,
-                 edge_share: float = EDGE_SHARE):
+                 edge_share: float = EDGE_SHARE, single: bool = False):
         super().__init__(flexibility)
+        self.single = single
         self.scope = OptionsScope(prefix, options)
         self.ksp = PETSc.KSP().create(flexibility.comm)
         self.ksp.setOptionsPrefix(prefix)
@@ -92,7 +99,7 @@ class KSPSubsolver(ContactSetSubsolver):
             self.ksp.destroy()
             self.scope.close()
             raise InputError(prefix + "fourier_edge_share", f"must be in [0, 1), got {share!r}")
-        self.fourier = FourierPC(flexibility, share)
+        self.fourier = FourierPC(flexibility, share, single)
         self.sub = None
         self.x = self.b = self.r = None
 
@@ -104,7 +111,7 @@ class KSPSubsolver(ContactSetSubsolver):
 
     def _build(self, active: np.ndarray) -> None:
         self._free_sub()
-        self.sub = self.flexibility.block(active)
+        self.sub = self.flexibility.block(active, single=self.single)
         self.ksp.setOperators(self.sub)
         if not self.user_pc:
             pc = self.ksp.getPC()

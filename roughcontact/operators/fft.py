@@ -41,16 +41,18 @@ class _Full:
 
 
 class _Restricted:
-    """Python context of H_SS: zero outside S, full convolution, read on S."""
+    """Python context of H_SS: zero outside S, full convolution (``single``: in single precision),
+    read on S."""
 
-    def __init__(self, flexibility, active: np.ndarray):
+    def __init__(self, flexibility, active: np.ndarray, single: bool = False):
         self.flexibility = flexibility
         self.active = active.copy()
         self.values = np.zeros(active.size)
+        self.single = single
 
     def mult(self, mat, x, y):
         self.values[self.active] = x.getArray(readonly=True)
-        y.getArray()[:] = self.flexibility.product(self.values)[self.active]
+        y.getArray()[:] = self.flexibility.product(self.values, self.single)[self.active]
 
     multTranspose = mult
 
@@ -71,6 +73,7 @@ def full_operator(flexibility) -> PETSc.Mat:
     return _python_mat(_Full(flexibility), flexibility.layout.local_size, flexibility.comm)
 
 
-def restricted_operator(flexibility, active: np.ndarray) -> PETSc.Mat:
-    """H_SS as a matrix-free Mat over the contact set (``active``: mask of this rank's nodes)."""
-    return _python_mat(_Restricted(flexibility, active), int(active.sum()), flexibility.comm)
+def restricted_operator(flexibility, active: np.ndarray, single: bool = False) -> PETSc.Mat:
+    """H_SS as a matrix-free Mat over the contact set (``active``: mask of this rank's nodes);
+    ``single``: its products in single precision."""
+    return _python_mat(_Restricted(flexibility, active, single), int(active.sum()), flexibility.comm)

@@ -215,11 +215,12 @@ class Flexibility:
         the rank with the most of S holds its rows of the block)."""
         return count * count <= EXPLICIT_RATIO * self.layout.size and 8.0 * count * largest <= EXPLICIT_BYTES
 
-    def block(self, active: np.ndarray, explicit: bool | None = None) -> PETSc.Mat:
+    def block(self, active: np.ndarray, explicit: bool | None = None, single: bool = False) -> PETSc.Mat:
         """H_SS for the contact set S (``active``: mask over this rank's nodes), a new Mat.
 
         ``explicit`` forces an explicit (True) or matrix-free (False) block;
-        by default the cheaper one (:meth:`explicit_fits`).
+        by default the cheaper one (:meth:`explicit_fits`). ``single``: a matrix-free block's
+        products in single precision (:meth:`product`).
         """
         if self.kind == "dense" or self.convolution is None:
             rows = (np.flatnonzero(active) + self.layout.start).astype(PETSc.IntType)
@@ -235,7 +236,7 @@ class Flexibility:
             return self._explicit_block(active, count)
         from .fft import restricted_operator
 
-        return restricted_operator(self, active)
+        return restricted_operator(self, active, single)
 
     def _explicit_block(self, active: np.ndarray, count: int) -> PETSc.Mat:
         """H_SS from Eq. 10, row-distributed MATDENSE (C-ordered columns)."""

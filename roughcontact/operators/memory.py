@@ -71,6 +71,7 @@ from __future__ import annotations
 import math
 
 from ..errors import InputError
+from .kernel import BLOCK_CHUNK
 
 #: the operators built from a topography (one list for the package; numpy only, so it can be
 #: read before PETSc starts)
@@ -107,8 +108,6 @@ def explicit_block_memory(kind: str, nodes: int, ranks: int = 1) -> int:
     dense operator's block is PETSc's sub-matrix of the rank's rows of H."""
     if kind == "dense":
         return 8 * nodes * math.ceil(nodes / ranks)
-    from .kernel import BLOCK_CHUNK
-
     block = min(EXPLICIT_BYTES, 8 * EXPLICIT_RATIO * nodes)
     table = 8 * nodes if kind == "fft-periodic" else min(8 * nodes, TABLE_BYTES)
     return block + table + BLOCK_TEMPORARIES * 8 * min(BLOCK_CHUNK, EXPLICIT_RATIO * nodes)

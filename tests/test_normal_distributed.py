@@ -155,7 +155,7 @@ def test_a_free_rotation_solve_within_the_memory_estimate_with_its_explicit_bloc
     """With the rotation free the CG's Newton takes Hessians on the contact set, through explicit
     blocks H_SS where the set is small, and keeps the last one through the next evaluations: on
     the large-grid scene at 256² (a load point off the centroid) about 1 300 contact nodes, a 13 MB
-    block. Traced set-up and solve: 512 B/node, above DISTRIBUTED (265), within operator_memory,
+    block. Traced set-up and solve: 501 B/node, above DISTRIBUTED (265), within operator_memory,
     which adds the blocks' bound (explicit_block_memory: the block, the Eq. 10 table it reads, a
     chunk's temporaries). Before the blocks' bound was counted, and while they kept the table
     mirrored to signed offsets and index temporaries as large as the block, the same solve took

@@ -35,8 +35,8 @@ own, the high-water mark reset after the surface):
   EXPLICIT_BYTES on the rank holding most of S, the Eq. 10 table it reads
   (at most TABLE_BYTES; the periodic operator's whole period) and a chunk's
   temporaries — at most 304 MiB per rank (49 MiB at 257², 147 MiB at 513²).
-  With the rotation free, a solve of the large-grid scene took 391 / 305 /
-  280 B/node on one rank at 512² / 1024² / 2048² (``bench_memory
+  With the rotation free, a solve of the large-grid scene took 377 / 286 /
+  269 B/node on one rank at 512² / 1024² / 2048² (``bench_memory
   --free-rotation``), where the estimate without the blocks gave 315.
 
 Measured with the constrained CG (mixed precision, nested start, fields by rows), peak bytes
@@ -87,8 +87,9 @@ DISTRIBUTED = 265
 # Hessian; operators/flexibility.py), which a solve may hold beside its vectors:
 #: an explicit H_SS is used while |S|² ≤ EXPLICIT_RATIO · N (N the footprint's nodes): its product
 #: then costs about what an FFT product and the preconditioner save in iterations (the active set's
-#: load sweeps at 65² and 129² were fastest at 64, against 16 and 256; an explicit block at every
-#: size took 2.5 times longer at 129²) ...
+#: load sweeps at 65² and 129² were fastest at |S|² ≤ 16 Lx Ly, the padded grid's points, about
+#: 64 N on a whole grid, against 4 and 64 Lx Ly; an explicit block at every size took 2.5 times
+#: longer at 129²) ...
 EXPLICIT_RATIO = 64
 #: ... and while the rank with the most of S holds at most EXPLICIT_BYTES of it. A free-rotation
 #: solve at 1024² on a light load (3 810 contact nodes: 116 MB) took 13.4 s with the block explicit

@@ -46,20 +46,24 @@ def sphere_heights(n: int, spacing: float, radius: float, centre=None) -> np.nda
     return -(x[:, None] ** 2 + y[None, :] ** 2) / (2.0 * radius)
 
 
-def traced_share(comm, work) -> float:
-    """Peak traced allocations (tracemalloc: deterministic, unlike the resident set) of ``work(on)``
-    on the busiest rank of ``comm``, over the same on one rank alone. Each side runs once first, so
-    FFT plan caches and first-use buffers are not counted."""
+def traced_peak(work, *args) -> int:
+    """Peak bytes of the allocations traced while ``work(*args)`` runs (tracemalloc: deterministic,
+    unlike the resident set)."""
     import tracemalloc
 
-    def peak(on) -> int:
-        tracemalloc.start()
-        work(on)
-        _, top = tracemalloc.get_traced_memory()
+    tracemalloc.start()
+    try:
+        work(*args)
+        return tracemalloc.get_traced_memory()[1]
+    finally:
         tracemalloc.stop()
-        return top
 
-    peak(MPI.COMM_SELF)
-    peak(comm)
-    alone = peak(MPI.COMM_SELF)
-    return comm.allreduce(peak(comm), op=MPI.MAX) / alone
+
+def traced_share(comm, work) -> float:
+    """Peak traced allocations (:func:`traced_peak`) of ``work(on)`` on the busiest rank of ``comm``,
+    over the same on one rank alone. Each side runs once first, so FFT plan caches and first-use
+    buffers are not counted."""
+    traced_peak(work, MPI.COMM_SELF)
+    traced_peak(work, comm)
+    alone = traced_peak(work, MPI.COMM_SELF)
+    return comm.allreduce(traced_peak(work, comm), op=MPI.MAX) / alone

@@ -3,8 +3,6 @@
 computes from the whole grid, on any number of ranks."""
 from __future__ import annotations
 
-import tracemalloc
-
 import numpy as np
 import pytest
 from scipy.spatial import ConvexHull
@@ -13,7 +11,7 @@ from roughcontact.materials import Interface, Material
 from roughcontact.normal import NormalProblem
 from roughcontact.surfaces import Topography
 
-from conftest import traced_share
+from conftest import traced_peak, traced_share
 
 ROCK = Interface(Material(30e9, 0.25))
 
@@ -142,12 +140,7 @@ def test_a_solve_allocates_within_the_memory_estimates_share_of_one_rank(scene):
             solve_scene(problem, PRESSURES[scene], gather=False)
 
     solve()                                    # FFT plans and first-use buffers, not counted
-    tracemalloc.start()
-    try:
-        solve()
-        peak = tracemalloc.get_traced_memory()[1]
-    finally:
-        tracemalloc.stop()
+    peak = traced_peak(solve)
     assert peak / n ** 2 <= DISTRIBUTED, (scene, peak / n ** 2)
 
 
@@ -179,12 +172,7 @@ def test_a_free_rotation_solve_within_the_memory_estimate_with_its_explicit_bloc
             built.append(problem.flexibility._table is not None)     # an explicit block was read from it
 
     solve()                                    # FFT plans and first-use buffers, not counted
-    tracemalloc.start()
-    try:
-        solve()
-        peak = tracemalloc.get_traced_memory()[1]
-    finally:
-        tracemalloc.stop()
+    peak = traced_peak(solve)
     assert built == [True, True]
     assert peak <= operator_memory("fft", n * n, 1), (peak / n ** 2, operator_memory("fft", n * n, 1) / n ** 2)
 

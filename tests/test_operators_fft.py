@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import subprocess
 import sys
-import tracemalloc
 
 import numpy as np
 import pytest
@@ -18,6 +17,8 @@ from roughcontact.operators.flexibility import Flexibility
 from roughcontact.operators.kernel import influence_rows, kernel_block, punch_kernel
 from roughcontact.operators.periodic import lattice_coulomb, periodic_kernel
 from roughcontact.surfaces import Topography, disc
+
+from conftest import traced_peak
 
 ROCK = Interface(Material(20e9, 0.2), Material(20e9, 0.2))
 SPACING = 1e-4
@@ -283,12 +284,7 @@ def test_blocks_from_the_formula_are_the_tables_entries_bit_for_bit():
         np.testing.assert_array_equal(kernel_block(table, shape, rows, columns, chunk=chunk), expected)
     large = (2048, 2047)
     nodes = np.stack(np.unravel_index(rng.choice(large[0] * large[1], 200, replace=False), large), axis=1)
-    tracemalloc.start()
-    try:
-        punch_block(spacing, ROCK.compliance, nodes, nodes)
-        peak = tracemalloc.get_traced_memory()[1]
-    finally:
-        tracemalloc.stop()
+    peak = traced_peak(punch_block, spacing, ROCK.compliance, nodes, nodes)
     assert peak <= 8 * 8 * 200 ** 2, peak
 
 

@@ -41,18 +41,18 @@ class _Full:
 
 
 class _Restricted:
-    """Python context of H_SS: zero outside S, full convolution (``single``: in single precision),
-    read on S."""
+    """Python context of H_SS: x on S, zero elsewhere, full convolution (``single``: in single
+    precision), read on S; it holds S's node indices, not a vector of the rank's nodes."""
 
     def __init__(self, flexibility, active: np.ndarray, single: bool = False):
         self.flexibility = flexibility
-        self.active = active.copy()
-        self.values = np.zeros(active.size)
+        self.nodes = np.flatnonzero(active)
         self.single = single
 
     def mult(self, mat, x, y):
-        self.values[self.active] = x.getArray(readonly=True)
-        y.getArray()[:] = self.flexibility.product(self.values, self.single)[self.active]
+        # x on S goes into the transform at its nodes (only S's rows transformed where S is sparse)
+        product = self.flexibility.product_at(x.getArray(readonly=True), self.nodes, self.single)
+        y.getArray()[:] = product[self.nodes]
 
     multTranspose = mult
 

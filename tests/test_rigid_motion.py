@@ -76,7 +76,10 @@ def evaluations(bed: Springs, loads: np.ndarray, log: list, loose: float):
 
 
 def newton(bed: Springs, loads: np.ndarray, log: list, resolution, loose: float = LOOSE):
-    stiffness = lambda active: (K * bed.columns.T @ bed.columns, 0)        # noqa: E731 - exact, every node
+    # the Hessian over the rotations of Φ minimised over δz, exact on every node: k C_θᵀ (I − 1 1ᵀ/n) C_θ
+    # (the Schur complement over δz of k CᵀC), the rotations' columns centred
+    centred = bed.columns[:, 1:] - bed.columns[:, 1:].mean(axis=0)
+    stiffness = lambda active: (K * centred.T @ centred, 0)               # noqa: E731
     return newton_on_motion(bed, np.zeros(3), [0, 1, 2], [1, 2], loads, evaluations(bed, loads, log, loose),
                             stiffness, load_tol=LOAD_TOL, max_newton=20, resolution=resolution)
 

@@ -36,8 +36,8 @@ preconditioner:
 4. the load is restored exactly, p ← p · P/Σp.
 
 Load control with free rotation (imposed moments) is a Newton iteration on
-(θx, θy) around this solve (:mod:`.rigid_motion`, whose Hessian needs three
-Krylov solves on the contact set): imposing the moments as two more linear
+(θx, θy) around this solve (:mod:`.rigid_motion`, whose Hessian needs two
+Krylov solves on the contact set, at a constant load): imposing the moments as two more linear
 constraints inside the CG loses the support at small loads, where a handful
 of nodes must surround the load point.
 
@@ -385,19 +385,15 @@ class ConstrainedCGSolver(NormalSolver):
 
     def _predicted(self, motion0: np.ndarray, forces0: np.ndarray, motion: np.ndarray) -> np.ndarray:
         """The start of an evaluation at ``motion``: the forces of the state (motion0, forces0)
-        moved along the Hessian's solutions on its contact set S, p0 + H_SS⁻¹ C_S Δr, with the
-        Δδz that keeps Σp (exact while S holds; the CG corrects the rest). The trials of a Newton
-        step started from the last evaluation took 10-13 % more linear iterations (257² and
-        1025² sweeps)."""
+        moved along the Hessian's solutions on its contact set S, p0 + X Δθ (X the forces'
+        response to the rotations at a constant load, :meth:`_stiffness`; exact while S holds,
+        the CG corrects the rest), clipped at zero. The trials of a Newton step started from the
+        last evaluation took 10-13 % more linear iterations (257² and 1025² sweeps)."""
         if self._basis is None:
             return forces0
         nodes, basis = self._basis
-        tilt = basis[:, 1:] @ (np.asarray(motion[1:], dtype=float) - np.asarray(motion0[1:], dtype=float))
-        sums = self.problem.allsum(np.array([tilt.sum(), basis[:, 0].sum()]))
-        if not sums[1] > 0.0:
-            return forces0
         forces = forces0.copy()
-        forces[nodes] += tilt - (sums[0] / sums[1]) * basis[:, 0]
+        forces[nodes] += basis @ (np.asarray(motion[1:], dtype=float) - np.asarray(motion0[1:], dtype=float))
         return np.maximum(forces, 0.0, out=forces)
 
     def _constrained_cg(self, rigid, free, loads, forces, tol: float | None = None,
@@ -663,11 +659,16 @@ class ConstrainedCGSolver(NormalSolver):
         return self._colours
 
     def _stiffness(self, active: np.ndarray):
-        """C_Sᵀ H_SS⁻¹ C_S for (δz, θx, θy): three Krylov solves on the contact set S."""
+        """The Hessian over (θx, θy) of Φ minimised over δz: X = H_SS⁻¹ (C_θ − 1 μᵀ) with Σ X = 0,
+        the forces' response to the rotations at a constant load (two Krylov solves on the
+        contact set S, :class:`~.petsc.LoadKept`), and C_θᵀ X, the Schur complement over δz of
+        C_Sᵀ H_SS⁻¹ C_S (Eq. 8: C_θ = [−y, −x]). Three solves for the whole of C_Sᵀ H_SS⁻¹ C_S
+        took the fine level's Hessians 24 + 13 Krylov iterations on the large-grid scene with
+        the rotation free at 2048², the two 14 + 8."""
         pb = self.problem
         if pb.allsum(active.sum()) == 0:
             self._basis = None
-            return np.zeros((3, 3)), 0
+            return np.zeros((2, 2)), 0
         if self._krylov is None:
             from .petsc import KSPSubsolver
 
@@ -680,21 +681,22 @@ class ConstrainedCGSolver(NormalSolver):
             # rotation to 12 digits, its Hessians 0.60-0.61 of the time at 1024² and 2048²
             self._krylov = KSPSubsolver(pb.flexibility, prefix="normal_rotation_", rtol=1e-3,
                                         edge_share=self.settings.edge_share,
-                                        single=self.settings.precision == "mixed")
+                                        single=self.settings.precision == "mixed", keep_load=True)
         self._krylov.set_active(active)
         nodes = np.flatnonzero(active)
-        columns = pb.columns_at(nodes)
+        columns = pb.columns_at(nodes)[:, 1:]
         guess = np.zeros_like(columns)
         if self._basis is not None:                    # the last step's solutions where S kept its nodes
             _, here, there = np.intersect1d(nodes, self._basis[0], assume_unique=True, return_indices=True)
             guess[here] = self._basis[1][there]
         basis = np.empty_like(columns)
         its = 0
-        for j in range(3):
+        for j in range(2):
             basis[:, j], count = self._krylov.solve(columns[:, j], guess[:, j])
             its += count
         self._basis = (nodes, basis)
-        return pb.allsum(columns.T @ basis), its
+        hessian = pb.allsum(columns.T @ basis)
+        return 0.5 * (hessian + hessian.T), its
 
     # ------------------------------------------------------------- helpers
     def _start(self, rigid, free, loads) -> tuple[np.ndarray, np.ndarray]:

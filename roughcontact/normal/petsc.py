@@ -53,6 +53,43 @@ class FourierPC:
                                                               self.single, self.edge)
 
 
+class LoadKept:
+    """Python Mat context of P H_SS P, P = I − 1 1ᵀ/|S|: H_SS on the forces of S that sum to zero.
+
+    The Mat carries the constant null space, which PETSc's KSP removes from the preconditioned
+    residual (``KSP_PCApply``), so CG on it with any preconditioner of H_SS stays on Σx = 0 and
+    solves the saddle point H_SS x + μ 1 = b, 1ᵀx = 0 (μ the approach that keeps the load)."""
+
+    def __init__(self, sub: PETSc.Mat):
+        self.sub = sub
+        self.nullspace = PETSc.NullSpace().create(constant=True, comm=sub.getComm())
+        self.work = sub.createVecLeft()
+
+    def mult(self, mat, x, y):
+        x.copy(self.work)
+        self.nullspace.remove(self.work)
+        self.sub.mult(self.work, y)
+        self.nullspace.remove(y)
+
+    multTranspose = mult
+
+    def mat(self) -> PETSc.Mat:
+        """The PETSc Mat of this context, with its null space."""
+        (local, _), _ = self.sub.getSizes()
+        mat = PETSc.Mat().createPython(((local, None), (local, None)), self, comm=self.sub.getComm())
+        mat.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+        mat.setUp()
+        mat.setNullSpace(self.nullspace)
+        mat.setTransposeNullSpace(self.nullspace)
+        return mat
+
+    def release(self) -> None:
+        """Free the work vector and the null space (after the Mat; not ``destroy``, which
+        petsc4py calls on a Python Mat's context as the Mat goes)."""
+        self.work.destroy()
+        self.nullspace.destroy()
+
+
 class KSPSubsolver(ContactSetSubsolver):
     """Solve H_SS x = b on the active set with a PETSc KSP.
 
@@ -75,15 +112,19 @@ class KSPSubsolver(ContactSetSubsolver):
         The products of a matrix-free block and of its preconditioner in single precision (their
         relative error about 1e-7): for solves far looser than that, as the free rotation's
         Hessian (rtol 1e-3).
+    keep_load
+        Solve on the forces of S that sum to zero (:class:`LoadKept`): x = H_SS⁻¹ (b − μ 1) with
+        Σx = 0 over all ranks, the response of the forces to a rigid motion b at a constant load.
     """
 
     name = "ksp"
 
     def __init__(self, flexibility, prefix: str = "normal_",
                  rtol: float = 1e-11, max_it: int = 10000, options: dict | None = None,
-                 edge_share: float = EDGE_SHARE, single: bool = False):
+                 edge_share: float = EDGE_SHARE, single: bool = False, keep_load: bool = False):
         super().__init__(flexibility)
         self.single = single
+        self.keep_load = keep_load
         self.scope = OptionsScope(prefix, options)
         self.ksp = PETSc.KSP().create(flexibility.comm)
         self.ksp.setOptionsPrefix(prefix)
@@ -100,7 +141,7 @@ class KSPSubsolver(ContactSetSubsolver):
             self.scope.close()
             raise InputError(prefix + "fourier_edge_share", f"must be in [0, 1), got {share!r}")
         self.fourier = FourierPC(flexibility, share, single)
-        self.sub = None
+        self.sub = self.operator = self.kept = None
         self.x = self.b = self.r = None
 
     @property
@@ -111,8 +152,11 @@ class KSPSubsolver(ContactSetSubsolver):
 
     def _build(self, active: np.ndarray) -> None:
         self._free_sub()
-        self.sub = self.flexibility.block(active, single=self.single)
-        self.ksp.setOperators(self.sub)
+        self.sub = self.operator = self.flexibility.block(active, single=self.single)
+        if self.keep_load:
+            self.kept = LoadKept(self.sub)
+            self.operator = self.kept.mat()
+        self.ksp.setOperators(self.operator)
         if not self.user_pc:
             pc = self.ksp.getPC()
             if self.sub.getType() == PETSc.Mat.Type.PYTHON:
@@ -127,7 +171,10 @@ class KSPSubsolver(ContactSetSubsolver):
     def solve(self, rhs: np.ndarray, guess: np.ndarray) -> tuple[np.ndarray, int]:
         self.b.getArray()[:] = rhs
         self.x.getArray()[:] = guess
-        its = solve_checked(self.ksp, self.sub, self.b, self.x, self.r,
+        if self.kept is not None:                     # both on Σ = 0: the KSP's iterates stay there
+            self.kept.nullspace.remove(self.b)
+            self.kept.nullspace.remove(self.x)
+        its = solve_checked(self.ksp, self.operator, self.b, self.x, self.r,
                             f"the Krylov solve on the contact set ({self.sub.getSize()[0]} nodes, "
                             f"{self.description})")
         return self.x.getArray().copy(), its
@@ -135,10 +182,13 @@ class KSPSubsolver(ContactSetSubsolver):
     def _free_sub(self) -> None:
         # the contact set changes size: the KSP must drop its old work vectors
         self.ksp.reset()
+        if self.kept is not None:
+            self.operator.destroy()
+            self.kept.release()
         for obj in (self.sub, self.x, self.b, self.r):
             if obj is not None:
                 obj.destroy()
-        self.sub = self.x = self.b = self.r = None
+        self.sub = self.operator = self.kept = self.x = self.b = self.r = None
 
     def destroy(self) -> None:
         self._free_sub()

@@ -9,8 +9,10 @@ F = C_freeᵀ p* − L_free, with w = C r − gap0 (Eq. 7) and C = [1, −y, −
 (Eq. 8). Newton iterates on some of the free components (``outer``); the
 others (``inner``) may be found inside each evaluation, which then returns a
 state of zero inner residual: Φ minimised over them is still convex, its
-gradient is the outer residual and its Hessian the Schur complement of
-K = C_Sᵀ H_SS⁻¹ C_S (|free| solves on the contact set S). On a fixed S, p is
+gradient is the outer residual and its Hessian the Schur complement over the
+inner components of K = C_Sᵀ H_SS⁻¹ C_S (the active set: K itself, |free|
+solves on the contact set S; the CG: C_θᵀ X from two solves of the forces'
+response X to the rotations at a constant load). On a fixed S, p is
 linear in r and the step is exact once S has settled. Far from it, a trust
 region bounds the step (and steers it along directions the contact set does
 not stiffen yet), the step below the imposed load is the one of Newton on
@@ -66,7 +68,8 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
         residual the iteration stands at (inf before the first), from which an inexact
         evaluation chooses how far to resolve the state (an inexact Newton).
     stiffness
-        ``stiffness(S) -> (K, iterations)``: C_Sᵀ H_SS⁻¹ C_S over ``free`` (|free| × |free|).
+        ``stiffness(S) -> (K, iterations)``: the Hessian of Φ over ``outer`` (|outer| × |outer|),
+        Φ minimised over the others: the Schur complement of C_Sᵀ H_SS⁻¹ C_S over them.
     load_tol, max_newton
         Stop when every outer load residual is within ``load_tol`` of P (moments:
         of P times the footprint's half-size); raise after ``max_newton`` steps.
@@ -86,8 +89,6 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
     scale = np.array([loads[0], loads[0] * extent, loads[0] * extent])[outer]
     height = max(problem.height_range, abs(rigid[0]), 1e-12 * extent)
     units = np.array([height, height / extent, height / extent])[outer]
-    position = [free.index(k) for k in outer]
-    inner = [free.index(k) for k in free if k not in outer]
     radius = 1.0
     history: list[float] = []
     spent = {"outer": 0, "linear": 0}                  # evaluations and linear iterations, all counted
@@ -111,9 +112,8 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
         if error <= load_tol:
             return state._replace(outer=spent["outer"], linear=spent["linear"], history=tuple(history),
                                   residual=max(state.residual, error)), rigid
-        matrix, its = stiffness(state.active)
+        hessian, its = stiffness(state.active)
         spent["linear"] += its
-        hessian = _schur(matrix, position, inner)
         newton_step = _newton_step(hessian, force, units, radius)
         step = newton_step * (log_damping(force[0] + target[0], target[0]) if outer[0] == 0 else 1.0)
         slope = float(force @ step)
@@ -177,18 +177,6 @@ def _evaluate(problem, rigid, free, outer, loads, evaluate, needed):
     force = sums[:-1] - loads[outer]
     phi = float(sums[-1] - 0.5 * state.slack - rigid[free] @ loads[free])
     return state, rigid, phi, force
-
-
-def _schur(matrix: np.ndarray, outer: list[int], inner: list[int]) -> np.ndarray:
-    """K_oo − K_oi K_ii⁻¹ K_io: the Hessian of Φ minimised over the inner components."""
-    k_oo = matrix[np.ix_(outer, outer)]
-    if not inner:
-        return k_oo
-    k_ii = matrix[np.ix_(inner, inner)]
-    if not np.all(np.linalg.eigvalsh(k_ii) > 0.0):
-        return k_oo
-    k_oi = matrix[np.ix_(outer, inner)]
-    return k_oo - k_oi @ np.linalg.solve(k_ii, k_oi.T)
 
 
 def log_damping(load: float, target: float) -> float:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from mpi4py import MPI
+from petsc4py import PETSc
 
 from roughcontact.collective import DestroyedError
 from roughcontact.errors import ConvergenceError, InputError
@@ -404,9 +405,10 @@ def test_a_trial_starts_from_the_forces_the_hessian_predicts(comm):
     """On a fixed contact set the forces are linear in the rotation at a constant load, with
     derivative X = H_SS⁻¹ (C_θ − 1 μᵀ), Σ X = 0 (the Hessian's Krylov solutions): the start a
     Newton trial gets at θ + Δθ is the solved state there, where the last evaluation's forces
-    are off by the whole change. To the Krylov solves' rtol: 1e-3 of the preconditioned
-    residual bounds the error by about κ rtol (κ of the preconditioned block below 10: bound
-    1e-2 of the change; X itself is checked to 1e-8 against LAPACK below)."""
+    are off by the whole change. To the Krylov solves' rtol: their residual at 1e-3 of the
+    right-hand side's bounds the solutions' error by κ rtol, κ = 12 for this set's block (an
+    explicit one, unpreconditioned; 10 on Σ = 0): bound 1.2e-2 of the change, 2.8e-3 measured.
+    X itself is checked to 1e-8 against LAPACK below."""
     from roughcontact.normal.constrained_cg import ConstrainedCGSolver
 
     problem = NormalProblem(rough(64, seed=7), FLAT, comm, operator="fft")
@@ -423,7 +425,7 @@ def test_a_trial_starts_from_the_forces_the_hessian_predicts(comm):
     assert np.array_equal(s0.active, s1.active)                     # the set held: linear there
     change = np.sqrt(problem.allsum(np.sum((s1.pressure - s0.pressure) ** 2)))
     error = np.sqrt(problem.allsum(np.sum((predicted - s1.pressure) ** 2)))
-    assert change > 0.0 and error <= 1e-2 * change
+    assert change > 0.0 and error <= 1.2e-2 * change
     problem.destroy()
 
 
@@ -432,9 +434,9 @@ def test_the_rotations_hessian_is_the_schur_complement_over_the_approach(comm, e
     """The CG's Hessian over (θx, θy), two Krylov solves at a constant load, is the Schur
     complement over δz of K = C_Sᵀ H_SS⁻¹ C_S (Eq. 8), and its solutions are the forces'
     response X = H_SS⁻¹ (C_θ − 1 μᵀ) with Σ X = 0: both against H_SS assembled from the Eq. 10
-    table and solved by LAPACK, to 1e-8 (the Krylov solves at rtol 1e-12 in double precision;
-    the preconditioned block's condition number is below 10), on any number of ranks; Σ X
-    vanishes to round-off (1e-12 of Σ|X|)."""
+    table and solved by LAPACK, to 1e-8 (the Krylov solves at rtol 1e-12 in double precision,
+    the block's condition number about 10), on any number of ranks; Σ X vanishes to round-off
+    (1e-12 of Σ|X|)."""
     from roughcontact.normal.constrained_cg import ConstrainedCGSolver
     from roughcontact.operators.kernel import punch_kernel
     from roughcontact.petsc import OptionsScope
@@ -448,8 +450,10 @@ def test_the_rotations_hessian_is_the_schur_complement_over_the_approach(comm, e
             solver.solve_load(0.01 * problem.topography.nominal_area, rotation=(0.0, 0.0))
             hessian, _ = solver._stiffness(solver.active)
             nodes, basis = solver._basis
+            free_block = solver._krylov.sub.getType() == PETSc.Mat.Type.PYTHON
     finally:
         scope.close()
+    assert free_block != explicit
     grid = np.concatenate(comm.allgather(problem.nodes[nodes]))
     columns = np.concatenate(comm.allgather(problem.columns_at(nodes)))
     response = np.concatenate(comm.allgather(basis))
@@ -465,6 +469,57 @@ def test_the_rotations_hessian_is_the_schur_complement_over_the_approach(comm, e
     np.testing.assert_allclose(hessian, schur, rtol=0, atol=1e-8 * np.abs(schur).max())
     np.testing.assert_allclose(response, exact, rtol=0, atol=1e-8 * np.abs(exact).max())
     assert np.all(np.abs(response.sum(axis=0)) <= 1e-12 * np.abs(response).sum(axis=0))
+    problem.destroy()
+
+
+@pytest.mark.parametrize("pc_type", [None, "jacobi"], ids=["default pc", "jacobi"])
+@pytest.mark.parametrize("explicit", [True, False], ids=["explicit block", "matrix-free block"])
+def test_solves_at_a_constant_load_on_any_set(comm, explicit, pc_type):
+    """KSPSubsolver(keep_load=True) solves H_SS x + μ 1 = b, Σ x = 0 (the saddle point of the
+    rotation's Hessian) on a set, on a different set after it (the block rebuilt), on a set in
+    the first rows only (a rank of two without nodes of it) and on one node (x = 0): against
+    LAPACK on the bordered matrix made from the Eq. 10 table, to 1e-8 (rtol 1e-12 in double
+    precision, the blocks' condition numbers about 10), with a pc_type of the options database
+    too (it preconditions the block; the KSP keeps the iterates on Σ = 0)."""
+    from roughcontact.normal.petsc import KSPSubsolver
+    from roughcontact.operators.kernel import punch_kernel
+
+    problem = NormalProblem(rough(32, seed=2), FLAT, comm, operator="fft")
+    flexibility = problem.flexibility
+    flexibility.explicit_fits = lambda count, largest: explicit
+    nodes = problem.nodes
+    rng = np.random.default_rng(11)
+    chosen = rng.random((2, 32, 32)) < 0.1                        # the same sets on any rank count
+    rhs_field = rng.standard_normal((32, 32))
+    table = punch_kernel(flexibility.shape, flexibility.spacing, flexibility.compliance)
+    sets = [chosen[0][nodes[:, 0], nodes[:, 1]], chosen[1][nodes[:, 0], nodes[:, 1]],
+            chosen[0][nodes[:, 0], nodes[:, 1]] & (nodes[:, 0] < 4),
+            (nodes[:, 0] == 7) & (nodes[:, 1] == 9)]
+    options = {"ksp_rtol": 1e-12} | ({} if pc_type is None else {"pc_type": pc_type})
+    solver = KSPSubsolver(flexibility, prefix="test_kept_", options=options, keep_load=True)
+    try:
+        for active in sets:
+            solver.set_active(active)
+            if not explicit and pc_type is None:
+                assert solver.sub.getType() == PETSc.Mat.Type.PYTHON
+            rhs = rhs_field[nodes[active, 0], nodes[active, 1]]
+            x, _ = solver.solve(rhs, np.zeros(rhs.size))
+            grid = np.concatenate(comm.allgather(nodes[active]))
+            whole_rhs = np.concatenate(comm.allgather(rhs))
+            whole_x = np.concatenate(comm.allgather(x))
+            k = grid.shape[0]
+            bordered = np.ones((k + 1, k + 1))
+            bordered[k, k] = 0.0
+            bordered[:k, :k] = table[np.abs(grid[:, None, 0] - grid[None, :, 0]),
+                                     np.abs(grid[:, None, 1] - grid[None, :, 1])]
+            exact = np.linalg.solve(bordered, np.append(whole_rhs, 0.0))[:k]
+            if k == 1:
+                assert np.all(whole_x == 0.0)
+                continue
+            np.testing.assert_allclose(whole_x, exact, rtol=0, atol=1e-8 * np.abs(exact).max())
+            assert abs(whole_x.sum()) <= 1e-12 * np.abs(whole_x).sum()
+    finally:
+        solver.destroy()
     problem.destroy()
 
 

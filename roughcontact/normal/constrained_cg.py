@@ -330,8 +330,9 @@ class ConstrainedCGSolver(NormalSolver):
         self.nested = NestedStart(problem, lambda level: ConstrainedCGSolver(level, coarse_settings, coarse=True)) \
             if nested and NestedStart.applies(problem) else None
         self._krylov = None                            # Krylov solves of the Hessian, free rotation
-        # their last solutions (nodes of S, H_SS⁻¹ C_S), the next step's and the next load's start:
-        # 32 B per contact node of this rank, kept until the solver is released
+        # their last solutions (nodes of S, X: the forces' response to (θx, θy) at a constant load),
+        # the next step's and the next load's start: 24 B per contact node of this rank, kept until
+        # the solver is released
         self._basis = None
         self._colours = None                           # the nodes' checkerboard (alternate_return)
 

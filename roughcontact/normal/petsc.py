@@ -11,7 +11,9 @@ under the prefix (default ``normal_``), so ``-normal_ksp_type gmres
 -normal_pc_type none -normal_ksp_monitor`` work from the command line and a
 ``pc_type`` given there is kept for every block. Every solve checks the
 converged reason; a negative reason raises
-:class:`~roughcontact.errors.ConvergenceError` naming it.
+:class:`~roughcontact.errors.ConvergenceError` naming it. With ``keep_load``
+the solves are on the forces of S that sum to zero (:class:`LoadKept`): the
+free rotation's Hessian at a constant load.
 """
 from __future__ import annotations
 
@@ -156,7 +158,9 @@ class KSPSubsolver(ContactSetSubsolver):
         if self.keep_load:
             self.kept = LoadKept(self.sub)
             self.operator = self.kept.mat()
-        self.ksp.setOperators(self.operator)
+        # the projection's Mat solves, the block preconditions: a pc_type of the options database
+        # (jacobi, cholesky …) reads the block's entries or diagonal, which the projection has not
+        self.ksp.setOperators(self.operator, self.sub)
         if not self.user_pc:
             pc = self.ksp.getPC()
             if self.sub.getType() == PETSc.Mat.Type.PYTHON:
@@ -177,6 +181,10 @@ class KSPSubsolver(ContactSetSubsolver):
         its = solve_checked(self.ksp, self.operator, self.b, self.x, self.r,
                             f"the Krylov solve on the contact set ({self.sub.getSize()[0]} nodes, "
                             f"{self.description})")
+        if self.kept is not None:
+            # the KSP removes the null space after a left preconditioner only: a right-preconditioned
+            # or flexible ksp_type of the options database may leave a constant in x
+            self.kept.nullspace.remove(self.x)
         return self.x.getArray().copy(), its
 
     def _free_sub(self) -> None:

@@ -28,7 +28,7 @@ class _Full:
     multTranspose = mult
 
     def getDiagonal(self, mat, diagonal):
-        diagonal.set(self.flexibility.diagonal)
+        diagonal.set(self.diagonal)
 
     def createSubMatrix(self, mat, rows, columns, reuse):
         if columns is not None and not rows.equal(columns):
@@ -42,22 +42,23 @@ class _Full:
 
 class _Restricted:
     """Python context of H_SS: x on S, zero elsewhere, full convolution (``single``: in single
-    precision), read on S; it holds S's node indices, not a vector of the rank's nodes."""
+    precision), read on S; it holds S's slab positions, not a vector of the rank's nodes."""
 
     def __init__(self, flexibility, active: np.ndarray, single: bool = False):
-        self.flexibility = flexibility
-        self.nodes = np.flatnonzero(active)
+        self.convolution = flexibility.convolution
+        self.positions = flexibility.layout.slab_positions(np.flatnonzero(active))
         self.single = single
+        self.diagonal = flexibility.diagonal
 
     def mult(self, mat, x, y):
-        # x on S goes into the transform at its nodes (only S's rows transformed where S is sparse)
-        product = self.flexibility.product_at(x.getArray(readonly=True), self.nodes, self.single)
-        y.getArray()[:] = product[self.nodes]
+        # x goes into the transform at S's positions (only S's rows transformed where S is sparse),
+        # and the product is read at them before it is cropped: no field of the rank's nodes
+        y.getArray()[:] = self.convolution.restricted(x.getArray(readonly=True), self.positions, self.single)
 
     multTranspose = mult
 
     def getDiagonal(self, mat, diagonal):
-        diagonal.set(self.flexibility.diagonal)
+        diagonal.set(self.diagonal)
 
 
 def _python_mat(context, local: int, comm) -> PETSc.Mat:

@@ -62,7 +62,7 @@ by rows and columns (docs/solvers.md, "The symbol by half its rows"): near full 
 rows (without the coordinates by rows and columns), 60. The constants
 bound every one of
 these from above. ``"fft-periodic"`` makes its whole
-Ewald-summed table once at set-up (8 B/node, kept for its explicit blocks). Explicit blocks of
+Ewald-summed table once at set-up (8 B/node, transient). Explicit blocks of
 H_SS (small contact sets) read the whole Eq. 10 table only up to TABLE_BYTES and count in
 :func:`explicit_block_memory`.
 """

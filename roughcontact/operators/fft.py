@@ -28,7 +28,7 @@ class _Full:
     multTranspose = mult
 
     def getDiagonal(self, mat, diagonal):
-        diagonal.set(self.diagonal)
+        diagonal.set(self.flexibility.diagonal)
 
     def createSubMatrix(self, mat, rows, columns, reuse):
         if columns is not None and not rows.equal(columns):

@@ -37,9 +37,9 @@ preconditioner:
 
 Load control with free rotation (imposed moments) is a Newton iteration on
 (θx, θy) around this solve (:mod:`.rigid_motion`, whose Hessian needs two
-Krylov solves on the contact set, at a constant load): imposing the moments as two more linear
-constraints inside the CG loses the support at small loads, where a handful
-of nodes must surround the load point.
+Krylov solves on the contact set at a constant load): imposing the moments
+as two more linear constraints inside the CG loses the support at small
+loads, where a handful of nodes must surround the load point.
 
 It stops when the residual of the contact conditions,
 max(|g| on S, max(−g) off S) / (scale of w), is at most ``tol`` (the same

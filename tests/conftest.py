@@ -46,6 +46,12 @@ def sphere_heights(n: int, spacing: float, radius: float, centre=None) -> np.nda
     return -(x[:, None] ** 2 + y[None, :] ** 2) / (2.0 * radius)
 
 
+def table_block(table: np.ndarray, rows: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """H between two sets of (i, j) nodes read from an Eq. 10 table K[|Δi|, |Δj|] by numpy's
+    indexing: the reference the operators' blocks and solves are checked against."""
+    return table[np.abs(rows[:, None, 0] - columns[None, :, 0]), np.abs(rows[:, None, 1] - columns[None, :, 1])]
+
+
 def traced_peak(work, *args) -> int:
     """Peak bytes of the allocations traced while ``work(*args)`` runs (tracemalloc: deterministic,
     unlike the resident set)."""

@@ -21,7 +21,7 @@ from roughcontact.normal.constrained_cg import CGSettings
 from roughcontact.references import hertz
 from roughcontact.surfaces import Topography, disc, fourier_surface
 
-from conftest import sphere_heights
+from conftest import sphere_heights, table_block
 
 FLAT = Interface(Material(1.0, 0.0))               # E* = 1 against a rigid flat
 FORCE_RTOL = 1e-6
@@ -460,8 +460,7 @@ def test_the_rotations_hessian_is_the_schur_complement_over_the_approach(comm, e
     columns = np.concatenate(comm.allgather(problem.columns_at(nodes)))
     response = np.concatenate(comm.allgather(basis))
     table = punch_kernel(flexibility.shape, flexibility.spacing, flexibility.compliance)
-    block = table[np.abs(grid[:, None, 0] - grid[None, :, 0]), np.abs(grid[:, None, 1] - grid[None, :, 1])]
-    solved = np.linalg.solve(block, columns)
+    solved = np.linalg.solve(table_block(table, grid, grid), columns)
     stiffness = columns.T @ solved
     schur = stiffness[1:, 1:] - np.outer(stiffness[1:, 0], stiffness[0, 1:]) / stiffness[0, 0]
     exact = solved[:, 1:] - np.outer(solved[:, 0], stiffness[0, 1:]) / stiffness[0, 0]
@@ -512,8 +511,7 @@ def test_solves_at_a_constant_load_on_any_set(comm, explicit, pc_type):
             k = grid.shape[0]
             bordered = np.ones((k + 1, k + 1))
             bordered[k, k] = 0.0
-            bordered[:k, :k] = table[np.abs(grid[:, None, 0] - grid[None, :, 0]),
-                                     np.abs(grid[:, None, 1] - grid[None, :, 1])]
+            bordered[:k, :k] = table_block(table, grid, grid)
             exact = np.linalg.solve(bordered, np.append(whole_rhs, 0.0))[:k]
             if k == 1:
                 assert np.all(whole_x == 0.0)

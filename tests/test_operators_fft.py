@@ -18,7 +18,7 @@ from roughcontact.operators.kernel import influence_rows, kernel_block, punch_ke
 from roughcontact.operators.periodic import lattice_coulomb, periodic_kernel
 from roughcontact.surfaces import Topography, disc
 
-from conftest import traced_peak
+from conftest import table_block, traced_peak
 
 ROCK = Interface(Material(20e9, 0.2), Material(20e9, 0.2))
 SPACING = 1e-4
@@ -278,7 +278,7 @@ def test_blocks_from_the_formula_are_the_tables_entries_bit_for_bit():
     rows = np.stack(np.unravel_index(rng.choice(shape[0] * shape[1], 60, replace=False), shape), axis=1)
     columns = np.stack(np.unravel_index(rng.choice(shape[0] * shape[1], 45, replace=False), shape), axis=1)
     table = punch_kernel(shape, spacing, ROCK.compliance)
-    expected = table[np.abs(rows[:, None, 0] - columns[None, :, 0]), np.abs(rows[:, None, 1] - columns[None, :, 1])]
+    expected = table_block(table, rows, columns)
     for chunk in (1, 7, 1 << 18):
         np.testing.assert_array_equal(punch_block(spacing, ROCK.compliance, rows, columns, chunk=chunk), expected)
         np.testing.assert_array_equal(kernel_block(table, shape, rows, columns, chunk=chunk), expected)

@@ -253,8 +253,10 @@ class Flexibility:
 
     def _entries(self, row_nodes: np.ndarray, column_nodes: np.ndarray) -> np.ndarray:
         """H between two sets of (i, j) nodes: read from the Eq. 10 table while it takes at most
-        TABLE_BYTES (the periodic operator's Ewald-summed period always: a sum too costly to
-        repeat, made whole at set-up anyway), else Eq. 10 evaluated at each entry."""
+        TABLE_BYTES (the periodic operator's Ewald-summed period always: there is no entry-wise
+        formula; its set-up lets its own copy go, so a first block sums the period again — no
+        solver of the periodic operator takes blocks: rotations and the active set refuse it),
+        else Eq. 10 evaluated at each entry."""
         if self.periodic or 8 * self.shape[0] * self.shape[1] <= TABLE_BYTES:
             return kernel_block(self.table, self.shape, row_nodes, column_nodes, periodic=self.periodic)
         return punch_block(self.spacing, self.compliance, row_nodes, column_nodes)

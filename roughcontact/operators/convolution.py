@@ -28,7 +28,8 @@ Because the padding is never transformed along y and only nx rows come
 back along x, a product costs about 0.7 of a plain padded 2-D FFT pair.
 FFTs are scipy's (pocketfft), measured faster here than FFTW's Python
 wrapper for these sizes; ``workers`` threads split each batch of 1-D
-transforms when a rank has more than one core.
+transforms when a rank has more than one core, and the passes between the
+transforms by blocks of rows (:mod:`.passes`).
 
 A product may be taken in single precision (``single=True``: float32
 fields, complex64 spectra, the symbol rounded to float32): about half the
@@ -45,6 +46,7 @@ import numpy as np
 import scipy.fft as sfft
 
 from ..surfaces.rows import split
+from . import passes
 from .heap import MAPPED_FROM, retain_large_blocks
 
 
@@ -309,7 +311,7 @@ class SlabConvolution:
             return whole.reshape(-1)[index]
         # written dense (the write made sure the buffer holds the slab); the product is a new array
         flat = _flat_slab(*self._padded(single), whole.shape[0] * self.shape[1])
-        flat.reshape(whole.shape[0], -1)[...] = whole[:, :self.shape[1]]
+        passes.copy(flat.reshape(whole.shape[0], -1), whole[:, :self.shape[1]], self.workers)
         return flat[positions]
 
     def _written_at(self, values, positions: np.ndarray, single: bool) -> np.ndarray:
@@ -324,14 +326,14 @@ class SlabConvolution:
         block = rows[:, :ny]
         flat = _flat_slab(rows, columns, count * ny) if dense(positions.size, count * ny) else None
         if flat is not None:
-            flat.fill(0.0)
+            passes.fill(flat.reshape(count, ny), 0.0, self.workers)
             flat[positions] = values
-            block[...] = flat.reshape(count, ny)
+            passes.copy(block, flat.reshape(count, ny), self.workers)
             self._written[single] = None                    # the whole block: zeroed whole next
             return block.any(axis=1)
         last = self._written.get(single)
         if last is None or dense(last.size, count * ny):
-            block[...] = 0.0
+            passes.fill(block, 0.0, self.workers)
         else:
             rows.reshape(-1)[last] = 0.0
         row = positions // ny
@@ -361,8 +363,8 @@ class SlabConvolution:
             symbol, scaled = self._single_half, spectrum.view(np.float32)
         else:
             symbol, scaled = self._half, spectrum
-        scaled[:self._half_rows] *= symbol
-        scaled[self._half_rows:] *= self._mirror(symbol)
+        passes.scale(scaled[:self._half_rows], symbol, self.workers)
+        passes.scale(scaled[self._half_rows:], self._mirror(symbol), self.workers)
         return self.backward(spectrum, crop)
 
     def forward(self, field: np.ndarray, single: bool = False) -> np.ndarray:
@@ -373,7 +375,7 @@ class SlabConvolution:
         and zero a padded copy at every call (8 % of a 2048² product).
         """
         rows = self._padded(single)[0]
-        rows[:, :self.shape[1]] = field
+        passes.copy(rows[:, :self.shape[1]], field, self.workers)
         self._written[single] = None
         return self._transform(single)
 
@@ -426,13 +428,14 @@ class SlabConvolution:
             spectra = columns[:count] if self.size == 1 else np.empty((count, self.columns), columns.dtype)
             done = 0
             for start, stop in runs:
-                spectra[done:start] = 0.0
-                spectra[start:stop] = sfft.rfft(rows[start:stop], axis=1, workers=self.workers)
+                passes.fill(spectra[done:start], 0.0, self.workers)
+                passes.copy(spectra[start:stop], sfft.rfft(rows[start:stop], axis=1, workers=self.workers),
+                            self.workers)
                 done = stop
-            spectra[done:] = 0.0
+            passes.fill(spectra[done:], 0.0, self.workers)
             if self.size > 1:
                 self._to_columns(spectra, out=columns)
-        columns[self.shape[0]:] = 0.0
+        passes.fill(columns[self.shape[0]:], 0.0, self.workers)
         return sfft.fft(columns, axis=0, overwrite_x=True, workers=self.workers)
 
     def release_buffers(self) -> None:
@@ -462,7 +465,7 @@ class SlabConvolution:
         if self.size == 1:
             if out is None:
                 return spectra
-            out[:self.shape[0]] = spectra
+            passes.copy(out[:self.shape[0]], spectra, self.workers)
             return out[:self.shape[0]]
         width = self.my_columns[1] - self.my_columns[0]
         if out is None:

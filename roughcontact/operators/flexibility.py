@@ -28,6 +28,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from ..errors import InputError
+from . import passes
 from .convolution import SlabConvolution
 from .kernel import kernel_block, punch_block, punch_kernel
 from .layout import NodeLayout
@@ -164,9 +165,12 @@ class Flexibility:
     def _nodal(self, result: np.ndarray) -> np.ndarray:
         """This rank's nodes of a product on its slab rows, float64, a new contiguous array."""
         if self.layout.whole_rows:
-            # one copy of the cropped (strided) product, already float64: reshaping it first made
-            # a float32 copy and the cast a second one (5 ms of a 100 ms product at 2048²)
-            return np.ascontiguousarray(result, dtype=float).reshape(-1)
+            # one copy of the cropped (strided) product, cast to float64 on the way: reshaping it
+            # first made a float32 copy and the cast a second one (5 ms of a 100 ms product at
+            # 2048²); shared by the transform's threads (:mod:`.passes`)
+            out = np.empty(result.shape)
+            passes.copy(out, result, self.convolution.workers)
+            return out.reshape(-1)
         return self.layout.from_slab(result).astype(float, copy=False)
 
     def precondition_nodes(self, values: np.ndarray, nodes: np.ndarray, single: bool = False,

@@ -7,15 +7,23 @@ must agree bit for bit. Run serially and under ``mpiexec -n 2`` (each rank its o
 """
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import pytest
 
-from roughcontact.operators import passes
+from roughcontact.operators import convolution, passes
 from roughcontact.operators.convolution import SlabConvolution
 from roughcontact.operators.kernel import punch_kernel
 
 
-@pytest.mark.parametrize("count", [0, 1, passes.SHARED_FROM - 1, passes.SHARED_FROM, 1001])
+@pytest.fixture
+def shared_always(monkeypatch):
+    """Every pass split, however small its array (the tests' grids are far below SHARED_VALUES)."""
+    monkeypatch.setattr(passes, "SHARED_VALUES", 1)
+
+
+@pytest.mark.parametrize("count", [0, 1, 2, 3, 1001])
 @pytest.mark.parametrize("workers", [1, 2, 3])
 def test_every_row_once(count, workers):
     seen = np.zeros(count, dtype=int)
@@ -27,26 +35,37 @@ def test_every_row_once(count, workers):
 
     passes.by_rows(workers, count, work)
     assert np.all(seen == 1)
-    expected = 1 if workers == 1 or count < passes.SHARED_FROM else workers
-    assert len(shares) == expected
+    assert len(shares) == max(1, min(workers, count))
 
 
-def test_an_error_in_a_share_is_raised_after_every_share_ends():
+def test_an_error_is_raised_only_after_every_share_ends():
+    """With three shares the last one is still running when the second fails: the call must not
+    return (nor raise) before it has ended, nor hide the calling thread's own error."""
     ended = []
 
     def work(start, stop):
-        if start > 0:
-            raise ValueError("share failed")
-        ended.append((start, stop))
+        if start == 0:
+            return
+        if stop < 300:
+            raise ValueError("second share failed")
+        threading.Event().wait(0.2)                       # still writing after the failure
+        ended.append(start)
 
-    with pytest.raises(ValueError, match="share failed"):
-        passes.by_rows(2, 200, work)
-    assert ended == [(0, 100)]
+    with pytest.raises(ValueError, match="second share failed"):
+        passes.by_rows(3, 300, work)
+    assert ended == [200]
+
+    def first_fails(start, stop):
+        raise KeyError("calling thread") if start == 0 else ValueError("pool thread")
+
+    with pytest.raises(KeyError, match="calling thread"):
+        passes.by_rows(2, 10, first_fails)
 
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64, np.complex64])
-def test_fill_copy_scale_equal_numpy(dtype):
-    """On reversed rows too (the symbol's mirror is a view with its rows reversed)."""
+def test_fill_copy_scale_equal_numpy(shared_always, dtype):
+    """On reversed rows too (the symbol's mirror is a view with its rows reversed), and a
+    broadcast operand left to numpy whole."""
     rng = np.random.default_rng(5)
     source = rng.standard_normal((300, 70)).astype(dtype)
     factor = rng.standard_normal((300, 70)).astype(np.float32 if dtype == np.complex64 else dtype)
@@ -54,20 +73,28 @@ def test_fill_copy_scale_equal_numpy(dtype):
         target = np.empty((300, 70))                     # cast on the way, as the nodal copy does
         passes.copy(target, source[::-1], 2)
         assert np.array_equal(target, source[::-1].astype(np.float64))
+        passes.copy(target, source[:1], 2)
+        assert np.array_equal(target, np.broadcast_to(source[:1], target.shape).astype(np.float64))
     scaled = source.copy()
     passes.scale(scaled, factor[::-1], 2)
     assert np.array_equal(scaled, source * factor[::-1])
+    passes.scale(scaled, factor[0], 2)
+    assert np.array_equal(scaled, source * factor[::-1] * factor[0])
     passes.fill(scaled, 0.0, 2)
     assert not scaled.any()
 
 
 def _products(conv: SlabConvolution, n: int, single: bool) -> list[np.ndarray]:
+    """Every write path of a product: a whole field, values at a few nodes (the runs of their
+    rows alone transformed: the rows of the slab's first and last 10, gaps of 64 rows and more),
+    at most nodes (the dense write), and the restricted products of both."""
     rng = np.random.default_rng(11)
     r0, r1 = conv.rows
-    slab = (r1 - r0) * n
-    sparse = np.sort(rng.choice(slab, slab // 50 + 1, replace=False)) if slab else np.zeros(0, int)
-    dense = np.sort(rng.choice(slab, slab * 3 // 4, replace=False)) if slab else np.zeros(0, int)
-    field = rng.standard_normal((r1 - r0, n))
+    count = r1 - r0
+    rows = np.r_[0:10, count - 10:count]
+    sparse = (rows[:, None] * n + rng.choice(n, 5, replace=False)[None, :]).ravel()
+    dense = np.sort(rng.choice(count * n, count * n * 3 // 4, replace=False))
+    field = rng.standard_normal((count, n))
     return [np.array(conv.apply(field, single)),
             np.array(conv.apply_at(rng.standard_normal(sparse.size), sparse, single)),
             np.array(conv.apply_at(rng.standard_normal(dense.size), dense, single)),
@@ -76,12 +103,13 @@ def _products(conv: SlabConvolution, n: int, single: bool) -> list[np.ndarray]:
 
 
 @pytest.mark.parametrize("single", [False, True])
-@pytest.mark.parametrize("period", [None, (150, 150)])
-def test_products_do_not_depend_on_the_threads(comm, single, period):
+@pytest.mark.parametrize("period", [None, (260, 260)])
+def test_products_do_not_depend_on_the_threads(comm, shared_always, monkeypatch, single, period):
     """The half-space product and a periodic one on a longer period, every write path, in both
-    precisions: equal bit for bit with one thread and with two (rows ≥ SHARED_FROM per rank, so
-    the passes are split)."""
-    n = 2 * passes.SHARED_FROM + 8 if comm.Get_size() > 1 else passes.SHARED_FROM + 16
+    precisions: equal bit for bit with one thread and with two, every pass split (the run gaps
+    too: RUN_POINTS 0 transforms only the occupied runs of rows)."""
+    monkeypatch.setattr(convolution, "RUN_POINTS", 0)
+    n = 100 * comm.Get_size() if comm.Get_size() > 1 else 150
     table = punch_kernel((n, n), 1e-4, 1e-11)
     results = []
     for workers in (1, 2):

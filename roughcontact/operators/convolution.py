@@ -404,7 +404,7 @@ class SlabConvolution:
             self._written[single] = None
         buffers = self._buffers[single]
         if self._holder is not None and self._holder != single:
-            buffers[0].fill(0.0)
+            passes.fill(buffers[0], 0.0, self.workers)
             self._written[single] = np.zeros(0, dtype=np.intp)     # nothing of this precision left
         self._holder = single
         return buffers

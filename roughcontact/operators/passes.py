@@ -2,63 +2,92 @@
 
 A product's transforms use ``workers`` threads (:mod:`.convolution`), but the
 passes between them ran on one: the product with the symbol, the zeroing of
-the padded rows, the copies into and out of the padded buffers. These are
-large memory-bound loops (a 4096² padded spectrum in single precision is
-134 MB), and numpy releases the GIL inside each, so the same threads can
-share them by contiguous blocks of rows. Two threads against one on this
-project's 2-core machines (medians of 9): the product with the symbol of a
-4096² padded spectrum 35.9 → 20.6 ms, zeroing its lower half 16.9 → 9.2 ms.
+the padded buffers, the copies into and out of them. These are large
+memory-bound loops (the padded spectrum of a 4096² grid in single precision
+is 268 MB), and numpy releases the GIL inside each, so the same threads can
+share them by contiguous blocks of rows (docs/solver-cost.md, "The passes
+between the transforms", gives what it saves).
 
-The pool is made on first use and kept for the process; with one worker the
-work runs in the calling thread.
+The pool is made on first use and kept for the process; with one worker, or
+an array of fewer than :data:`SHARED_VALUES` values, the work runs in the
+calling thread. Only the calling thread submits work, and no share submits
+any, so shares never wait on each other.
 """
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 
 import numpy as np
 
-#: rows of a pass below which it runs in the calling thread (a share's hand-over costs ~20 µs)
-SHARED_FROM = 64
+#: values of an array below which a pass runs in the calling thread: handing a share to another
+#: thread costs about 20 µs, a pass over 2**18 float32 values about 100 µs
+SHARED_VALUES = 1 << 18
 
 _pool: ThreadPoolExecutor | None = None
+_pool_threads = 0
 
 
 def _executor(threads: int) -> ThreadPoolExecutor:
-    """The process's pool, with at least ``threads`` threads."""
-    global _pool
-    if _pool is None or _pool._max_workers < threads:
+    """The process's pool, with at least ``threads`` threads (a smaller one is replaced: every
+    earlier call has waited for its shares before returning)."""
+    global _pool, _pool_threads
+    if _pool is None or _pool_threads < threads:
         if _pool is not None:
             _pool.shutdown(wait=True)
         _pool = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="roughcontact-pass")
+        _pool_threads = threads
     return _pool
 
 
 def by_rows(workers: int, count: int, work) -> None:
-    """``work(start, stop)`` over ``workers`` contiguous shares of ``range(count)``, one of them in
-    the calling thread; returns when every share is done (the first error is raised)."""
-    if workers <= 1 or count < SHARED_FROM:
+    """``work(start, stop)`` over ``workers`` contiguous shares of ``range(count)`` (fewer where
+    there are fewer rows), one of them in the calling thread. Returns, or raises the first
+    error (the calling thread's first), only when every share has ended."""
+    shares = min(workers, count)
+    if shares <= 1:
         work(0, count)
         return
-    bounds = np.linspace(0, count, workers + 1).astype(int)
-    futures = [_executor(workers - 1).submit(work, int(a), int(b)) for a, b in zip(bounds[1:-1], bounds[2:])]
+    bounds = np.linspace(0, count, shares + 1).astype(int)
+    pool = _executor(shares - 1)
+    futures = [pool.submit(work, int(a), int(b)) for a, b in zip(bounds[1:-1], bounds[2:])]
     try:
         work(int(bounds[0]), int(bounds[1]))
     finally:
-        for future in futures:
-            future.result()
+        wait(futures)
+    for future in futures:
+        future.result()
+
+
+def _threads(target: np.ndarray, workers: int) -> int:
+    """The threads a pass over ``target`` takes: one below SHARED_VALUES values."""
+    return workers if target.size >= SHARED_VALUES else 1
+
+
+def _same_rows(target: np.ndarray, other: np.ndarray) -> bool:
+    """Whether ``other`` can be sliced by rows with ``target``: the same leading length, not a
+    broadcast (which numpy's whole-array operation handles)."""
+    return np.ndim(other) == target.ndim and other.shape[0] == target.shape[0]
 
 
 def fill(target: np.ndarray, value: float, workers: int) -> None:
     """target[...] = value, by blocks of its leading axis."""
-    by_rows(workers, target.shape[0], lambda a, b: target[a:b].fill(value))
+    by_rows(_threads(target, workers), target.shape[0], lambda a, b: target[a:b].fill(value))
 
 
 def copy(target: np.ndarray, source: np.ndarray, workers: int) -> None:
-    """target[...] = source (same leading length; casts as numpy's assignment does)."""
-    by_rows(workers, target.shape[0], lambda a, b: np.copyto(target[a:b], source[a:b], casting="unsafe"))
+    """target[...] = source, casting as numpy's assignment does; ``source`` must not overlap
+    ``target`` (the blocks are written in any order)."""
+    if not _same_rows(target, source):
+        np.copyto(target, source, casting="unsafe")
+        return
+    by_rows(_threads(target, workers), target.shape[0],
+            lambda a, b: np.copyto(target[a:b], source[a:b], casting="unsafe"))
 
 
 def scale(target: np.ndarray, factor: np.ndarray, workers: int) -> None:
-    """target *= factor (same leading length), in place."""
-    by_rows(workers, target.shape[0], lambda a, b: np.multiply(target[a:b], factor[a:b], out=target[a:b]))
+    """target *= factor, in place (``factor`` not overlapping ``target``)."""
+    if not _same_rows(target, factor):
+        target *= factor
+        return
+    by_rows(_threads(target, workers), target.shape[0],
+            lambda a, b: np.multiply(target[a:b], factor[a:b], out=target[a:b]))

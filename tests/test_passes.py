@@ -39,21 +39,24 @@ def test_every_row_once(count, workers):
 
 
 def test_an_error_is_raised_only_after_every_share_ends():
-    """With three shares the last one is still running when the second fails: the call must not
-    return (nor raise) before it has ended, nor hide the calling thread's own error."""
-    ended = []
+    """With three shares the second fails at once while the third is still running: the call must
+    not return (nor raise) before the third has ended, nor hide the calling thread's own error.
+    The third share waits up to 1 s for the test to have seen the call end; it must not see it."""
+    returned, seen = threading.Event(), []
 
     def work(start, stop):
         if start == 0:
             return
         if stop < 300:
             raise ValueError("second share failed")
-        threading.Event().wait(0.2)                       # still writing after the failure
-        ended.append(start)
+        seen.append(returned.wait(1.0))                   # True only if the call ended before this share
 
-    with pytest.raises(ValueError, match="second share failed"):
-        passes.by_rows(3, 300, work)
-    assert ended == [200]
+    try:
+        with pytest.raises(ValueError, match="second share failed"):
+            passes.by_rows(3, 300, work)
+    finally:
+        returned.set()
+    assert seen == [False]
 
     def first_fails(start, stop):
         raise KeyError("calling thread") if start == 0 else ValueError("pool thread")

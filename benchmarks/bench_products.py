@@ -13,7 +13,9 @@ preconditioner's edge correction (``--edge-shares``, ``CGSettings.edge_share``)
 and share of the gap up to which cut forces' far fields wait (``--defers``,
 ``CGSettings.defer``; the settings' runs alternate) the rows give that ratio,
 the fine and coarse iterations, the fine grid's FFT products taken in double
-and in single precision, and the residual measured on a double product.
+and in single precision (and how many of them, held after a cut that could not
+wait, skipped their inverse transforms), and the residual measured on a double
+product.
 
 Scenes: ``scene`` is the large-grid scene (Hurst 0.8, unit rms slope, mean
 pressure 0.01 E*, rotation fixed; benchmarks/bench_normal_large.py);
@@ -58,19 +60,31 @@ PRESSURES = {"scene": SCENE_PRESSURE, "full": 1.0}            # mean pressure / 
 
 
 class Counter:
-    """Counts the FFT products of a convolution by precision (wraps its ``apply`` and
-    ``apply_at``)."""
+    """Counts the FFT products of a convolution by precision (wraps its ``apply``, ``apply_at``,
+    ``restricted`` and the held ones, ``held`` and ``held_at``), and those held whose inverse
+    transforms were skipped (``inverse_skipped``: the products less the inverse transforms run,
+    ``backward``)."""
 
     def __init__(self, convolution):
-        self.counts = {"double": 0, "single": 0}
+        self.counts = {"double": 0, "single": 0, "inverse_skipped": 0}
         convolution.apply = self._counted(convolution.apply, 1)
         convolution.apply_at = self._counted(convolution.apply_at, 2)
+        convolution.restricted = self._counted(convolution.restricted, 2)
+        convolution.held = self._counted(convolution.held, 1)
+        convolution.held_at = self._counted(convolution.held_at, 2)
+        backward = convolution.backward
+
+        def inverse(*args, **kwargs):
+            self.counts["inverse_skipped"] -= 1
+            return backward(*args, **kwargs)
+        convolution.backward = inverse
 
     def _counted(self, product, fields: int):
         """``product`` counted; its ``single`` follows ``fields`` positional arguments."""
         def counted(*args, **kwargs):
             single = args[fields] if len(args) > fields else kwargs.get("single", False)
             self.counts["single" if single else "double"] += 1
+            self.counts["inverse_skipped"] += 1
             return product(*args, **kwargs)
         return counted
 

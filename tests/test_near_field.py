@@ -123,7 +123,7 @@ def test_settling_the_deferred_forces_completes_the_displacement(flexibility, un
     last = mine(flexibility, spread_forces(seed=6, count=2))
     nodes = np.flatnonzero(last)
     clipped[nodes] = last[nodes]
-    displacement += pending.settle(clipped, nodes, flexibility.product_at)
+    displacement += pending.settle(clipped, nodes, lambda values, every: flexibility.product_at(values[every], every))
     total += last
     expected = flexibility.product(total)
     np.testing.assert_allclose(displacement, expected, rtol=0, atol=1e-10 * expected.max())

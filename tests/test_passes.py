@@ -122,3 +122,27 @@ def test_products_do_not_depend_on_the_threads(comm, shared_always, monkeypatch,
     for one, two in zip(*results):
         assert one.dtype == two.dtype
         assert np.array_equal(one, two)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.complex64, np.complex128])
+@pytest.mark.parametrize("rows", [0, 1, 17, 300])
+def test_scale_summed_scales_as_numpy_and_sums_the_scaled_squares(shared_always, dtype, rows):
+    """scale_summed multiplies as numpy does, bit for bit, on reversed rows of the factor too (the
+    symbol's mirror), with one thread or two; its sum Σ t·(f t) over the real view is the float64
+    sum to the bound of a dot of positive terms: each block of SUMMED_ROWS rows is summed in its
+    own precision, n terms with a relative error of at most n · u (u = 2⁻²⁴ in single, 2⁻⁵³ in
+    double), and one u more for the rounding of the scaled values."""
+    rng = np.random.default_rng(rows)
+    real = np.float64 if dtype == np.complex128 else np.float32
+    source = rng.standard_normal((rows, 70)).astype(real)
+    if dtype != np.float32:
+        source = (source + 1j * rng.standard_normal((rows, 70))).astype(dtype)
+    factor = (0.5 + rng.random((rows, 70))).astype(real)[::-1]   # positive, as a symbol's values
+    view = source.view(real)
+    terms = view.size // max(rows, 1) * passes.SUMMED_ROWS
+    expected = float(np.sum(view.astype(np.float64) ** 2 * np.repeat(factor, view.shape[1] // 70, axis=1)))
+    for workers in (1, 2):
+        target = source.copy()
+        total = passes.scale_summed(target, factor, workers)
+        assert np.array_equal(target, source * factor)
+        assert abs(total - expected) <= (terms + 1) * np.finfo(real).eps / 2 * expected

@@ -32,7 +32,10 @@ preconditioner:
    with c the forces the cut at zero restored: a second product, on the
    iterations that cut, or only c's near field summed directly while the
    far fields left out stay below a share of the gap's size
-   (:mod:`~roughcontact.operators.near_field`, ``CGSettings.defer``);
+   (:mod:`~roughcontact.operators.near_field`, ``CGSettings.defer``). After
+   a cut too large to wait, the next H d is held between its transforms
+   with dᵀHd read off its spectrum (Parseval); where that step cuts too,
+   H (c − α d) is one product and H d's inverse transforms are skipped;
 4. the load is restored exactly, p ← p · P/Σp.
 
 Load control with free rotation (imposed moments) is a Newton iteration on
@@ -341,6 +344,7 @@ class ConstrainedCGSolver(NormalSolver):
         # the solver is released
         self._basis = None
         self._colours = None                           # the nodes' checkerboard (alternate_return)
+        self._fresh = False                            # the last start was not a solution's (:meth:`_start`)
 
     @property
     def description(self) -> str:
@@ -464,6 +468,8 @@ class ConstrainedCGSolver(NormalSolver):
         best, since_best = np.inf, 0                   # the lowest residual, iterations since it
         since_restart = 0
         at_floor = False                               # H p taken exactly at SINGLE_FLOOR (mixed precision)
+        # H d held this iteration: the last cut could not wait, or the first step of a fresh start
+        holding = owned and self._fresh and pb.flexibility.holds
         for iteration in range(1, settings.max_iterations + 1):
             restarts.clear()
             # the set now, into the scratch mask: in_contact still holds the last step's set, and
@@ -583,15 +589,25 @@ class ConstrainedCGSolver(NormalSolver):
             _clear(direction, last)
             direction[working] = step_direction
             del g, z
-            if dense(working.size, forces.size):
-                # a dense set: the direction field itself (d on the set, zero elsewhere) goes
-                # into the transform whole, where scattering d at the set's positions cost three
-                # passes over the slab (the product 0.81-0.85 of the time near full contact at
-                # 1024² and 2048², 86 % of the nodes in the set)
-                product = pb.displacement(direction, single)
+            # H d, held between its transforms with dᵀHd read off its spectrum (Parseval), after
+            # an iteration whose cut could not wait and on the first step from a coarse grid's
+            # or the punches' start (``holding``): such cuts come in runs, and the step then
+            # decides below whether H d itself is wanted or only H of the step and its cut
+            # together. Elsewhere H d is made whole: reading dᵀHd off the spectrum costs a pass
+            # over it that only a joined product repays. On a dense set the direction field
+            # itself (d on the set, zero elsewhere) goes into the transform whole, where
+            # scattering d at the set's positions cost three passes over the slab (the product
+            # 0.81-0.85 of the time near full contact at 1024² and 2048², 86 % of the nodes in
+            # the set)
+            crowded = dense(working.size, forces.size)
+            if holding:
+                held_product, product = (pb.held_displacement(direction, single) if crowded
+                                         else pb.held_displacement_at(step_direction, working, single)), None
+                curvature = float(pb.allsum(held_product.energy))
             else:
-                product = pb.displacement_at(step_direction, working, single)
-            curvature = float(pb.allsum(step_direction @ product[working]))
+                held_product, product = None, (pb.displacement(direction, single) if crowded
+                                               else pb.displacement_at(step_direction, working, single))
+                curvature = float(pb.allsum(step_direction @ product[working]))
             if not curvature > 0.0:
                 raise ConvergenceError(
                     "CG_INDEFINITE", f"iteration {iteration}: dᵀHd = {curvature:.3e} <= 0 on a set of "
@@ -628,33 +644,60 @@ class ConstrainedCGSolver(NormalSolver):
             floor = single and forces_in_double and not at_floor and residual <= SINGLE_FLOOR
             at_floor = at_floor or floor
             if since_refresh >= settings.refresh or floor:
-                del product, displacement
+                del held_product, product, displacement   # H d unused (held: its inverse transforms skipped)
                 displacement = exact()
                 since_refresh = 0
                 if pending is not None:
                     pending.clear()
+                if cut:
+                    clipped[cut_nodes] = 0.0
+                holding = False
+                continue
+            # H (p − α d + c) = H p − α H d + H c. After a cut whose far field cannot wait, or
+            # with the far fields deferred grown past `allowed` (``CGSettings.defer``), the step
+            # and the forces to settle go into one product, H (c − α d): the held H d is dropped
+            # before its inverse transforms, a product of two saved for one. Otherwise H d is
+            # completed, and a cut whose far field waits adds only its near field
+            if pending is None:
+                joined = cut
+                holding = cut and pb.flexibility.holds
             else:
-                # H (p − α d + c) = H p − α H d + H c: after a cut, one more product, of the small
-                # correction c, whose single-precision error shrinks with it like the step's, or
-                # only c's near field while the far fields deferred stay below `allowed` (settled
-                # also on an iteration without a cut once the gap has shrunk below them)
+                mass, count = pb.allsum(np.array([clipped[cut_nodes].sum(), cut_nodes.size])) if cut \
+                    else (0.0, 0)
+                deferred = (cut and pending.count + count <= self._deferred_nodes
+                            and pending.bound(mass) <= allowed)
+                if deferred:
+                    pending.defer(displacement, cut_nodes, clipped[cut_nodes], float(mass), int(count))
+                joined = (cut and not deferred) or (not cut and pending.bound() > allowed)
+                # a cut too large to wait even alone: the next one is likely too (the first steps
+                # after a start, the set settling); a settle of small cuts that added up is not
+                holding = cut and not (count <= self._deferred_nodes and pending.alone(mass) <= allowed)
+            if joined and held_product is not None:
+                del held_product, product              # its spectrum is overwritten by the next transform
+                # c − α d into ``clipped``, rounded as on the set's nodes alone (d is zero off it)
+                if crowded:
+                    clipped -= step * direction
+                    join = lambda values, nodes: pb.displacement(values, single)          # noqa: E731
+                else:
+                    clipped[working] -= step * direction[working]
+                    join = lambda values, nodes: pb.displacement_at(values[nodes], nodes, single)  # noqa: E731
+                displacement += join(clipped, working) if pending is None else \
+                    pending.settle(clipped, working, join)
+                _clear(clipped, None if crowded else working)
+            else:
+                if held_product is not None:
+                    product = held_product.result()
                 displacement = _add_scaled(displacement, -step, product)
-                del product                            # before the product of the cut forces
-                if cut and pending is None:
-                    displacement += pb.displacement_at(clipped[cut_nodes], cut_nodes, single)
-                elif pending is not None:
-                    mass, count = pb.allsum(np.array([clipped[cut_nodes].sum(), cut_nodes.size])) if cut \
-                        else (0.0, 0)
-                    if cut and pending.count + count <= self._deferred_nodes and pending.bound(mass) <= allowed:
-                        pending.defer(displacement, cut_nodes, clipped[cut_nodes], float(mass), int(count))
-                    elif cut or pending.bound() > allowed:
-                        displacement += pending.settle(clipped, cut_nodes if cut else working[:0],
-                                                       lambda c, nodes: pb.displacement_at(c, nodes, single))
-                displacement *= scale                  # H is linear: a uniform rescaling is exact
-                if pending is not None:
-                    pending.rescale(scale)
-            if cut:
-                clipped[cut_nodes] = 0.0
+                del held_product, product              # before the product of the cut forces
+                if joined:                             # H d was made whole: c (and the deferred) apart
+                    own = lambda values, nodes: pb.displacement_at(values[nodes], nodes, single)  # noqa: E731
+                    displacement += own(clipped, cut_nodes) if pending is None else \
+                        pending.settle(clipped, cut_nodes if cut else working[:0], own)
+                if cut:
+                    clipped[cut_nodes] = 0.0
+            displacement *= scale                      # H is linear: a uniform rescaling is exact
+            if pending is not None:
+                pending.rescale(scale)
         raise ConvergenceError(
             "CG_MAX_ITERATIONS",
             f"{settings.max_iterations} bound-constrained CG iterations without meeting tol={tol:g} "
@@ -713,7 +756,11 @@ class ConstrainedCGSolver(NormalSolver):
         (:mod:`.nested`), or independent punches at the Winkler approach."""
         pb = self.problem
         self.coarse_iterations = 0
+        # a warm start (a neighbour's solution) cuts little on its first step; a coarse grid's or
+        # the punches' cuts much (``holding`` in the CG)
+        self._fresh = True
         if self.forces is not None and pb.allsum(self.forces.sum()) > 0.0:
+            self._fresh = False
             return self.forces.copy(), self.rigid.copy()
         if self.nested is not None:
             start = self.nested.start(rigid, free, loads)

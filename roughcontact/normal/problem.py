@@ -147,6 +147,18 @@ class NormalProblem(Collective):
         self._check_alive()
         return self.flexibility.product_at(forces, nodes, single)
 
+    def held_displacement(self, forces: np.ndarray, single: bool = False):
+        """:meth:`displacement` held before its inverse transforms, with pᵀHp known
+        (:meth:`.Flexibility.held_product`)."""
+        self._check_alive()
+        return self.flexibility.held_product(forces, single)
+
+    def held_displacement_at(self, forces: np.ndarray, nodes: np.ndarray, single: bool = False):
+        """:meth:`displacement_at` held before its inverse transforms
+        (:meth:`.Flexibility.held_product_at`)."""
+        self._check_alive()
+        return self.flexibility.held_product_at(forces, nodes, single)
+
     @property
     def extent(self) -> float:
         """Largest |x| or |y| of a footprint node from the centroid (m); s for a single node."""

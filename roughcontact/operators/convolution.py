@@ -178,6 +178,7 @@ class SlabConvolution:
         self._storage: tuple[np.ndarray, np.ndarray] | None = None
         self._buffers: dict[bool, tuple] = {}
         self._holder: bool | None = None                           # the precision that wrote last
+        self._stamp = 0                         # transforms made so far (a held product's check)
         # where apply_at() last wrote into the rows buffer of each precision (None: anywhere, after
         # a whole field)
         self._written: dict[bool, np.ndarray | None] = {}
@@ -298,6 +299,30 @@ class SlabConvolution:
         node in DENSE_WRITE is scattered into a flat slab and copied in."""
         return self._filtered(self._transform(single, self._written_at(values, positions, single)), single)
 
+    def held(self, field: np.ndarray, single: bool = False) -> HeldProduct:
+        """:meth:`apply` stopped before its inverse transforms, with xᵀ(k ⊛ x) read off the
+        spectrum (:class:`HeldProduct`)."""
+        return self._held(self.forward(field, single), single)
+
+    def held_at(self, values, positions: np.ndarray, single: bool = False) -> HeldProduct:
+        """:meth:`apply_at` stopped before its inverse transforms, as :meth:`held`."""
+        return self._held(self._transform(single, self._written_at(values, positions, single)), single)
+
+    def _held(self, spectrum: np.ndarray, single: bool) -> HeldProduct:
+        # Parseval over the half spectrum of a real field: every column ky stands for itself and
+        # its conjugate but ky = 0 and ky = Ly / 2 (Ly even), which stand for themselves alone
+        c0, c1 = self.my_columns
+        ly = self.lengths[1]
+        alone = [c - c0 for c in ({0, ly // 2} if ly % 2 == 0 else {0}) if c0 <= c < c1]
+        lone = 0.0
+        if alone:
+            # rows kx = 0 … Lx // 2 scaled by the symbol's rows kept, the others by their mirror
+            symbol = np.concatenate([self._half[:, alone], self._mirror(self._half[:, alone])])
+            lone = float(np.sum(symbol * np.abs(spectrum[:, alone].astype(complex)) ** 2))
+        total = self._scaled(spectrum, single, summed=True)
+        energy = (2.0 * total - lone) / (self.lengths[0] * ly)
+        return HeldProduct(self, spectrum, energy, self._stamp)
+
     def restricted(self, values, positions: np.ndarray, single: bool = False) -> np.ndarray:
         """(k ⊛ x) at the flat ``positions`` of this rank's (rows, ny) slab for x equal to
         ``values`` there and zero elsewhere (R_S K R_Sᵀ on a set S), read off the product before
@@ -356,6 +381,12 @@ class SlabConvolution:
         pairs by the symbol's values each written twice: complex64 times a float32 symbol
         converted each value on the fly, 1.3–1.4 times as long (a 2048² padded product's 4096 × 2049
         spectrum: 15.2 and 15.4 against 11.7 and 11.1 ms, medians of 11)."""
+        self._scaled(spectrum, single)
+        return self.backward(spectrum, crop)
+
+    def _scaled(self, spectrum: np.ndarray, single: bool, summed: bool = False) -> float | None:
+        """The spectrum times the symbol, in place (:meth:`_filtered`); ``summed``: also Σ λ |X|²
+        over it (:func:`.passes.scale_summed`), else None."""
         if single:
             if self._single_half is None:
                 self._single_half = np.repeat(self._half.astype(np.float32), 2, axis=1)
@@ -363,9 +394,13 @@ class SlabConvolution:
             symbol, scaled = self._single_half, spectrum.view(np.float32)
         else:
             symbol, scaled = self._half, spectrum
-        passes.scale(scaled[:self._half_rows], symbol, self.workers)
-        passes.scale(scaled[self._half_rows:], self._mirror(symbol), self.workers)
-        return self.backward(spectrum, crop)
+        half = self._half_rows
+        if not summed:
+            passes.scale(scaled[:half], symbol, self.workers)
+            passes.scale(scaled[half:], self._mirror(symbol), self.workers)
+            return None
+        return (passes.scale_summed(scaled[:half], symbol, self.workers)
+                + passes.scale_summed(scaled[half:], self._mirror(symbol), self.workers))
 
     def forward(self, field: np.ndarray, single: bool = False) -> np.ndarray:
         """2-D transform of the (padded) field: this rank's frequency columns, (Lx, my columns).
@@ -419,6 +454,7 @@ class SlabConvolution:
         on 0.3-44 %.
         """
         rows, columns = self._buffers[single]
+        self._stamp += 1
         count = rows.shape[0]
         runs = _runs(occupied) if occupied is not None and count else None
         if runs is None or (count - np.count_nonzero(occupied)) * self.lengths[1] <= RUN_POINTS * len(runs):
@@ -515,6 +551,31 @@ class SlabConvolution:
         finally:
             for kind in created:
                 kind.Free()
+
+
+class HeldProduct:
+    """k ⊛ x stopped between its transforms: the spectrum of x times the symbol, left in the
+    convolution's columns buffer, and ``energy``, this rank's part of xᵀ(k ⊛ x) over the grid,
+    read off that spectrum by Parseval's theorem (x is zero off the grid, so the padded circular
+    product's quadratic form is the linear one's). The constrained CG needs dᵀHd of a search
+    direction before it knows whether the step's own H d is wanted or only H of the step and
+    its cut together (:mod:`roughcontact.normal.constrained_cg`): a product left held skips its
+    inverse transforms, half its cost. :meth:`result` completes it; any later transform of the
+    convolution overwrites the buffer, and result() then raises."""
+
+    def __init__(self, convolution: SlabConvolution, spectrum: np.ndarray, energy: float, stamp: int):
+        self.convolution = convolution
+        self.spectrum = spectrum
+        self.energy = energy
+        self._stamp = stamp
+
+    def result(self, crop: bool = True) -> np.ndarray:
+        """k ⊛ x as :meth:`SlabConvolution.apply` gives it (once: the inverse overwrites the spectrum)."""
+        if self.spectrum is None or self.convolution._stamp != self._stamp:
+            raise RuntimeError("a held product was completed twice, or after another transform of "
+                               "its convolution overwrote its spectrum")
+        spectrum, self.spectrum = self.spectrum, None
+        return self.convolution.backward(spectrum, crop)
 
 
 def _folded(length: int) -> np.ndarray:

@@ -162,6 +162,26 @@ class Flexibility:
             return self.product(full, single)
         return self._nodal(self.convolution.apply_at(values, self.layout.slab_positions(nodes), single))
 
+    @property
+    def holds(self) -> bool:
+        """Whether a product can be held between its transforms (:meth:`held_product`): not on a
+        user's Mat, which has none."""
+        return self.convolution is not None
+
+    def held_product(self, values: np.ndarray, single: bool = False) -> HeldNodal:
+        """:meth:`product` held between its transforms, with xᵀHx known (:class:`HeldNodal`)."""
+        return HeldNodal(self, self._convolution_of("held products").held(self.slab(values), single))
+
+    def held_product_at(self, values: np.ndarray, nodes: np.ndarray, single: bool = False) -> HeldNodal:
+        """:meth:`product_at` held between its transforms, as :meth:`held_product`."""
+        return HeldNodal(self, self._convolution_of("held products").held_at(
+            values, self.layout.slab_positions(nodes), single))
+
+    def _convolution_of(self, what: str) -> SlabConvolution:
+        if self.convolution is None:
+            raise InputError("operator", f"{what} need an operator built from a topography, not a user Mat")
+        return self.convolution
+
     def _nodal(self, result: np.ndarray) -> np.ndarray:
         """This rank's nodes of a product on its slab rows, float64, a new contiguous array."""
         if self.layout.whole_rows:
@@ -272,3 +292,18 @@ class Flexibility:
         if self.mat is not None:
             self.mat.destroy()
         self.mat = None
+
+
+class HeldNodal:
+    """H x on this rank's nodes held before its inverse transforms
+    (:class:`~.convolution.HeldProduct`): ``energy`` is this rank's part of xᵀHx, :meth:`result`
+    completes H x."""
+
+    def __init__(self, flexibility: Flexibility, held):
+        self.flexibility = flexibility
+        self.held = held
+        self.energy = held.energy
+
+    def result(self) -> np.ndarray:
+        """H x on this rank's nodes, float64, as :meth:`Flexibility.product` gives it (once)."""
+        return self.flexibility._nodal(self.held.result())

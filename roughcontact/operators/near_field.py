@@ -102,6 +102,10 @@ class PendingFarField:
         """The most the deferred far fields, and those of ``mass`` more, add to any node."""
         return self.near.far_bound * (self.mass + mass)
 
+    def alone(self, mass: float) -> float:
+        """The most the far fields of forces of sum ``mass`` add to any node, whatever waits."""
+        return self.near.far_bound * mass
+
     def defer(self, displacement: np.ndarray, nodes: np.ndarray, forces: np.ndarray,
               mass: float, count: int) -> None:
         """Add the near field of ``forces`` on this rank's ``nodes`` to ``displacement`` and keep
@@ -119,17 +123,18 @@ class PendingFarField:
 
     def settle(self, clipped: np.ndarray, nodes: np.ndarray, product) -> np.ndarray:
         """H (clipped + deferred) less the deferred forces' near field, which the displacement
-        already holds: what completes it. ``clipped`` is zero but at this rank's ``nodes`` (the
-        last cut's, or none); it gets the deferred forces for the product and loses them after.
-        ``product(values, nodes)`` is H of ``values`` on ``nodes`` and zero elsewhere
-        (:meth:`~.flexibility.Flexibility.product_at`: only those nodes go into the transform).
-        Collective."""
+        already holds: what completes it. ``clipped`` (this rank's nodal vector) is zero but at
+        this rank's ``nodes`` (a cut's, the step's and its cut's, or none); it gets the deferred
+        forces for the product and loses them after. ``product(clipped, every)`` is H of
+        ``clipped``, which is zero off the nodes ``every`` (``nodes`` and the deferred ones;
+        :meth:`~.flexibility.Flexibility.product_at` of ``clipped[every]`` takes only those
+        nodes into the transform). Collective."""
         for where, forces in self.entries:
             clipped[where] += forces
         every = _union([nodes, *(where for where, _ in self.entries)], clipped.size)
-        field = product(clipped[every], every)
+        field = product(clipped, every)
         for where, forces in self.entries:
-            clipped[where] = 0.0           # a node of the last cut is zeroed by the caller after anyway
+            clipped[where] = 0.0           # the caller zeroes ``nodes`` after anyway
             self.near.add(field, where, forces, -1.0)
         self.clear()
         return field

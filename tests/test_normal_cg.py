@@ -174,17 +174,22 @@ def test_alternate_return_changes_the_path_not_the_state(comm, control, caplog):
     assert alternating.residual <= CGSettings().tol
 
 
+@pytest.mark.parametrize("deferring", [False, True], ids=["every cut settled", "far fields deferred"])
 @pytest.mark.parametrize("footprint", ["square", "disc"])
 @pytest.mark.parametrize("control", ["load, rotation fixed", "closure"])
-def test_a_dense_free_set_takes_the_direction_field_whole(comm, control, footprint, monkeypatch):
+def test_a_dense_free_set_takes_the_direction_field_whole(comm, control, footprint, deferring, monkeypatch):
     """Where the free set holds more than one node in DENSE_WRITE, the search direction's product
     is taken of the direction field itself (d on the set, zero elsewhere) instead of d scattered
     at the set's positions: the same field, so the same transforms. Near full contact (160², the
     whole grid or a disc's footprint, whose rows are partial) the solve is bit for bit the one
     that always scatters (``dense`` False in the CG), on any rank count; it fails if the field held anything
-    off the set."""
+    off the set. The same with the far fields deferred (DEFER_FROM lowered to this grid)."""
     import roughcontact.normal.constrained_cg as constrained_cg
 
+    if deferring:
+        if footprint == "disc":
+            pytest.skip("a footprint short of the whole grid has no near field: nothing is deferred")
+        monkeypatch.setattr(constrained_cg, "DEFER_FROM", 0)
     controls = {"load, rotation fixed": lambda s: s.solve_load(0.8 if footprint == "disc" else 1.0,
                                                                rotation=(0.0, 0.0)),
                 "closure": lambda s: s.solve_closure(1.06)}
@@ -222,31 +227,45 @@ def test_a_dense_free_set_takes_the_direction_field_whole(comm, control, footpri
 def test_a_step_and_the_cut_before_it_share_one_product(comm, control, deferring, monkeypatch):
     """After a cut too large to wait, the next search direction's H d is held between its
     transforms, dᵀHd read off its spectrum; where that step cuts too, H (c − α d) is taken as one
-    product and H d's inverse transforms are skipped. The solve reaches the active set's state
-    (FORCE_RTOL, as every CG solve here), and fewer inverse transforms than forward ones ran on
-    the grid, so the joined products were taken (every other product runs both). With the far
-    fields deferred (DEFER_FROM lowered to this grid) the deferred forces join the same product."""
+    product and H d's inverse transforms are skipped. With the far fields deferred (DEFER_FROM
+    lowered to this grid) a cut is held after only where it could not wait even alone.
+
+    - The solve reaches the active set's state (FORCE_RTOL, as every CG solve here).
+    - Fewer inverse transforms than forward ones ran: the joined products were taken (every
+      other product runs both).
+    - In double precision the solve takes the steps of the CG that never holds (the operator
+      made unable to: ``Flexibility.holds`` False), its residuals within 1e-10 at every
+      iteration: the two updates of H p differ by the rounding of H (c − α d) against
+      − α H d + H c, about 1e-16 of H p a step. A wrong joined update would be repaired only at
+      the exact confirmations, after other steps."""
     import roughcontact.normal.constrained_cg as constrained_cg
+    from roughcontact.operators.flexibility import Flexibility
 
     if deferring:
         monkeypatch.setattr(constrained_cg, "DEFER_FROM", 0)
     problem = NormalProblem(rough(64, seed=3), FLAT, comm, operator="fft")
     reference = solve(problem, "ksp", CONTROLS[control])
     convolution = problem.flexibility.convolution
-    counts = {"forward": 0, "inverse": 0}
+    events = []
 
-    def counted(name, method):
+    def logged(name, method):
         def call(*args, **kwargs):
-            counts[name] += 1
+            events.append(name)
             return method(*args, **kwargs)
         return call
 
-    monkeypatch.setattr(convolution, "_transform", counted("forward", convolution._transform))
-    monkeypatch.setattr(convolution, "backward", counted("inverse", convolution.backward))
+    monkeypatch.setattr(convolution, "_transform", logged("forward", convolution._transform))
+    monkeypatch.setattr(convolution, "backward", logged("inverse", convolution.backward))
     result = solve(problem, "cg", CONTROLS[control])
-    problem.destroy()
     assert_same_state(reference, result)
-    assert counts["inverse"] < counts["forward"]
+    assert events.count("inverse") < events.count("forward")
+    double = CGSettings(precision="double")
+    held = solve(problem, "cg", CONTROLS[control], settings=double)
+    monkeypatch.setattr(Flexibility, "holds", property(lambda self: False))
+    whole = solve(problem, "cg", CONTROLS[control], settings=double)
+    problem.destroy()
+    assert held.linear_iterations == whole.linear_iterations
+    np.testing.assert_allclose(held.residual_history, whole.residual_history, rtol=0, atol=1e-10)
 
 
 @pytest.mark.parametrize("value", [1, "yes", None])
@@ -816,9 +835,9 @@ def test_deferred_far_fields_reach_the_same_state(comm, control, monkeypatch):
 def test_deferred_far_fields_save_products(comm, monkeypatch):
     """On the large-grid scene at 512² (1.9 % contact) the default defer starts fewer padded
     products than settling every cut at once (forward transforms, measured 20 against 22 on one
-    rank) and takes no more transforms in all (20 + 18 against 22 + 16: settled at once, a cut
-    after one that could not wait shares its step's product, which skips H d's inverse), and
-    reaches the same state."""
+    rank), and reaches the same state. In all it took as many transforms (20 + 18 inverse against
+    22 + 16: settled at once, a cut after one that could not wait shares its step's product,
+    which skips H d's inverse transforms); that is not asserted."""
     problem = NormalProblem(rough(512, seed=1), FLAT, comm, operator="fft")
     convolution = problem.flexibility.convolution
     counts = []
@@ -839,7 +858,6 @@ def test_deferred_far_fields_save_products(comm, monkeypatch):
                             settings=CGSettings(defer=defer)))
     at_once, deferred = counts
     assert deferred[0] < at_once[0]
-    assert sum(deferred) <= sum(at_once)
     assert_same_state(*states)
     problem.destroy()
 

@@ -90,7 +90,8 @@ def test_fill_copy_scale_equal_numpy(shared_always, dtype):
 def _products(conv: SlabConvolution, n: int, single: bool) -> list[np.ndarray]:
     """Every write path of a product: a whole field, values at a few nodes (the runs of their
     rows alone transformed: the rows of the slab's first and last 10, gaps of 64 rows and more),
-    at most nodes (the dense write), and the restricted products of both."""
+    at most nodes (the dense write), and the restricted products of both; and held products,
+    their energies (read off the spectrum) and one completed."""
     rng = np.random.default_rng(11)
     r0, r1 = conv.rows
     count = r1 - r0
@@ -98,7 +99,10 @@ def _products(conv: SlabConvolution, n: int, single: bool) -> list[np.ndarray]:
     sparse = (rows[:, None] * n + rng.choice(n, 5, replace=False)[None, :]).ravel()
     dense = np.sort(rng.choice(count * n, count * n * 3 // 4, replace=False))
     field = rng.standard_normal((count, n))
-    return [np.array(conv.apply(field, single)),
+    held = conv.held(field, single)
+    held_at = conv.held_at(rng.standard_normal(dense.size), dense, single)
+    return [np.array(held_at.energy), np.array(held_at.result()), np.array(held.energy),
+            np.array(conv.apply(field, single)),
             np.array(conv.apply_at(rng.standard_normal(sparse.size), sparse, single)),
             np.array(conv.apply_at(rng.standard_normal(dense.size), dense, single)),
             np.array(conv.restricted(rng.standard_normal(dense.size), dense, single)),
@@ -109,8 +113,8 @@ def _products(conv: SlabConvolution, n: int, single: bool) -> list[np.ndarray]:
 @pytest.mark.parametrize("period", [None, (260, 260)])
 def test_products_do_not_depend_on_the_threads(comm, shared_always, monkeypatch, single, period):
     """The half-space product and a periodic one on a longer period, every write path, in both
-    precisions: equal bit for bit with one thread and with two, every pass split (the run gaps
-    too: RUN_POINTS 0 transforms only the occupied runs of rows)."""
+    precisions, and a held product's energy: equal bit for bit with one thread and with two,
+    every pass split (the run gaps too: RUN_POINTS 0 transforms only the occupied runs of rows)."""
     monkeypatch.setattr(convolution, "RUN_POINTS", 0)
     n = 100 * comm.Get_size() if comm.Get_size() > 1 else 150
     table = punch_kernel((n, n), 1e-4, 1e-11)
@@ -128,10 +132,11 @@ def test_products_do_not_depend_on_the_threads(comm, shared_always, monkeypatch,
 @pytest.mark.parametrize("rows", [0, 1, 17, 300])
 def test_scale_summed_scales_as_numpy_and_sums_the_scaled_squares(shared_always, dtype, rows):
     """scale_summed multiplies as numpy does, bit for bit, on reversed rows of the factor too (the
-    symbol's mirror), with one thread or two; its sum Σ t·(f t) over the real view is the float64
-    sum to the bound of a dot of positive terms: each block of SUMMED_ROWS rows is summed in its
-    own precision, n terms with a relative error of at most n · u (u = 2⁻²⁴ in single, 2⁻⁵³ in
-    double), and one u more for the rounding of the scaled values."""
+    symbol's mirror); its sum Σ t·(f t) over the real view is the same bits with one thread and
+    two (the threads split whole blocks), and the float64 sum to the bound of a dot of positive
+    terms: each block of SUMMED_ROWS rows is summed in its own precision, n terms with a relative
+    error of at most n · u (u = 2⁻²⁴ in single, 2⁻⁵³ in double), and one u more for the rounding
+    of the scaled values."""
     rng = np.random.default_rng(rows)
     real = np.float64 if dtype == np.complex128 else np.float32
     source = rng.standard_normal((rows, 70)).astype(real)
@@ -139,10 +144,18 @@ def test_scale_summed_scales_as_numpy_and_sums_the_scaled_squares(shared_always,
         source = (source + 1j * rng.standard_normal((rows, 70))).astype(dtype)
     factor = (0.5 + rng.random((rows, 70))).astype(real)[::-1]   # positive, as a symbol's values
     view = source.view(real)
-    terms = view.size // max(rows, 1) * passes.SUMMED_ROWS
+    terms = view.shape[1] * passes.SUMMED_ROWS
     expected = float(np.sum(view.astype(np.float64) ** 2 * np.repeat(factor, view.shape[1] // 70, axis=1)))
+    totals = []
     for workers in (1, 2):
         target = source.copy()
-        total = passes.scale_summed(target, factor, workers)
+        totals.append(passes.scale_summed(target, factor, workers))
         assert np.array_equal(target, source * factor)
-        assert abs(total - expected) <= (terms + 1) * np.finfo(real).eps / 2 * expected
+        assert abs(totals[-1] - expected) <= (terms + 1) * np.finfo(real).eps / 2 * expected
+    assert totals[0] == totals[1]
+
+
+def test_scale_summed_takes_no_broadcast_factor():
+    """A factor of one row would be sliced by the target's rows: refused, not broadcast wrongly."""
+    with pytest.raises(ValueError, match="factor of the target's rows"):
+        passes.scale_summed(np.ones((40, 8), np.float32), np.ones((1, 8), np.float32), 2)

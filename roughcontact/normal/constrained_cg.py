@@ -344,7 +344,7 @@ class ConstrainedCGSolver(NormalSolver):
         # the solver is released
         self._basis = None
         self._colours = None                           # the nodes' checkerboard (alternate_return)
-        self._fresh = False                            # the last start was not a solution's (:meth:`_start`)
+        self._fresh = False                            # whether the last start was a coarse grid's or the punches'
 
     @property
     def description(self) -> str:
@@ -469,7 +469,8 @@ class ConstrainedCGSolver(NormalSolver):
         since_restart = 0
         at_floor = False                               # H p taken exactly at SINGLE_FLOOR (mixed precision)
         # H d held this iteration: the last cut could not wait, or the first step of a fresh start
-        holding = owned and self._fresh and pb.flexibility.holds
+        holds = pb.flexibility.holds                   # whether the operator's products can be held
+        holding = owned and self._fresh and holds
         for iteration in range(1, settings.max_iterations + 1):
             restarts.clear()
             # the set now, into the scratch mask: in_contact still holds the last step's set, and
@@ -656,11 +657,11 @@ class ConstrainedCGSolver(NormalSolver):
             # H (p − α d + c) = H p − α H d + H c. After a cut whose far field cannot wait, or
             # with the far fields deferred grown past `allowed` (``CGSettings.defer``), the step
             # and the forces to settle go into one product, H (c − α d): the held H d is dropped
-            # before its inverse transforms, a product of two saved for one. Otherwise H d is
-            # completed, and a cut whose far field waits adds only its near field
+            # before its inverse transforms, half a product saved. Otherwise H d is completed,
+            # and a cut whose far field waits adds only its near field
             if pending is None:
                 joined = cut
-                holding = cut and pb.flexibility.holds
+                holding = cut and holds
             else:
                 mass, count = pb.allsum(np.array([clipped[cut_nodes].sum(), cut_nodes.size])) if cut \
                     else (0.0, 0)
@@ -671,18 +672,25 @@ class ConstrainedCGSolver(NormalSolver):
                 joined = (cut and not deferred) or (not cut and pending.bound() > allowed)
                 # a cut too large to wait even alone: the next one is likely too (the first steps
                 # after a start, the set settling); a settle of small cuts that added up is not
-                holding = cut and not (count <= self._deferred_nodes and pending.alone(mass) <= allowed)
+                holding = holds and cut and not (count <= self._deferred_nodes
+                                                 and pending.bound_of(mass) <= allowed)
+            # H of forces at some nodes (zero elsewhere) of a nodal vector: only those nodes go
+            # into the transform
+            scattered = lambda values, nodes: pb.displacement_at(values[nodes], nodes, single)  # noqa: E731
             if joined and held_product is not None:
                 del held_product, product              # its spectrum is overwritten by the next transform
-                # c − α d into ``clipped``, rounded as on the set's nodes alone (d is zero off it)
+                # c − α d into ``clipped`` (d is zero off the set); on a dense set the whole vector,
+                # rounded as on the set's nodes alone (daxpy's fused products would round it
+                # otherwise), so that both write paths transform the same field
                 if crowded:
                     clipped -= step * direction
                     join = lambda values, nodes: pb.displacement(values, single)          # noqa: E731
                 else:
                     clipped[working] -= step * direction[working]
-                    join = lambda values, nodes: pb.displacement_at(values[nodes], nodes, single)  # noqa: E731
-                displacement += join(clipped, working) if pending is None else \
-                    pending.settle(clipped, working, join)
+                    join = scattered
+                # (the ledger is empty after a cut that could not wait; it is settled in case not)
+                displacement += pending.settle(clipped, working, join) if pending is not None and pending.count \
+                    else join(clipped, working)
                 _clear(clipped, None if crowded else working)
             else:
                 if held_product is not None:
@@ -690,9 +698,8 @@ class ConstrainedCGSolver(NormalSolver):
                 displacement = _add_scaled(displacement, -step, product)
                 del held_product, product              # before the product of the cut forces
                 if joined:                             # H d was made whole: c (and the deferred) apart
-                    own = lambda values, nodes: pb.displacement_at(values[nodes], nodes, single)  # noqa: E731
-                    displacement += own(clipped, cut_nodes) if pending is None else \
-                        pending.settle(clipped, cut_nodes if cut else working[:0], own)
+                    displacement += scattered(clipped, cut_nodes) if pending is None else \
+                        pending.settle(clipped, cut_nodes if cut else working[:0], scattered)
                 if cut:
                     clipped[cut_nodes] = 0.0
             displacement *= scale                      # H is linear: a uniform rescaling is exact

@@ -310,17 +310,19 @@ class SlabConvolution:
 
     def _held(self, spectrum: np.ndarray, single: bool) -> HeldProduct:
         # Parseval over the half spectrum of a real field: every column ky stands for itself and
-        # its conjugate but ky = 0 and ky = Ly / 2 (Ly even), which stand for themselves alone
+        # its conjugate but ky = 0 and ky = Ly / 2 (Ly even), which stand for themselves only
         c0, c1 = self.my_columns
         ly = self.lengths[1]
-        alone = [c - c0 for c in ({0, ly // 2} if ly % 2 == 0 else {0}) if c0 <= c < c1]
-        lone = 0.0
-        if alone:
-            # rows kx = 0 … Lx // 2 scaled by the symbol's rows kept, the others by their mirror
-            symbol = np.concatenate([self._half[:, alone], self._mirror(self._half[:, alone])])
-            lone = float(np.sum(symbol * np.abs(spectrum[:, alone].astype(complex)) ** 2))
+        once = [c - c0 for c in ({0, ly // 2} if ly % 2 == 0 else {0}) if c0 <= c < c1]
+        counted_once = 0.0
+        if once:
+            # the symbol the product scales by (float32 in single precision): rows kx = 0 … Lx // 2
+            # by its rows kept, the others by their mirror
+            kept = self._half[:, once].astype(np.float32 if single else float)
+            symbol = np.concatenate([kept, self._mirror(kept)])
+            counted_once = float(np.sum(symbol * np.abs(spectrum[:, once].astype(complex)) ** 2))
         total = self._scaled(spectrum, single, summed=True)
-        energy = (2.0 * total - lone) / (self.lengths[0] * ly)
+        energy = (2.0 * total - counted_once) / (self.lengths[0] * ly)
         return HeldProduct(self, spectrum, energy, self._stamp)
 
     def restricted(self, values, positions: np.ndarray, single: bool = False) -> np.ndarray:
@@ -555,7 +557,8 @@ class SlabConvolution:
 
 class HeldProduct:
     """k ⊛ x stopped between its transforms: the spectrum of x times the symbol, left in the
-    convolution's columns buffer, and ``energy``, this rank's part of xᵀ(k ⊛ x) over the grid,
+    convolution's columns buffer, and ``energy``, this rank's part of xᵀ(k ⊛ x) over the grid
+    (twice the elastic energy of forces x),
     read off that spectrum by Parseval's theorem (x is zero off the grid, so the padded circular
     product's quadratic form is the linear one's). The constrained CG needs dᵀHd of a search
     direction before it knows whether the step's own H d is wanted or only H of the step and

@@ -102,8 +102,8 @@ class PendingFarField:
         """The most the deferred far fields, and those of ``mass`` more, add to any node."""
         return self.near.far_bound * (self.mass + mass)
 
-    def alone(self, mass: float) -> float:
-        """The most the far fields of forces of sum ``mass`` add to any node, whatever waits."""
+    def bound_of(self, mass: float) -> float:
+        """The most the far fields of forces of sum ``mass`` alone add to any node."""
         return self.near.far_bound * mass
 
     def defer(self, displacement: np.ndarray, nodes: np.ndarray, forces: np.ndarray,

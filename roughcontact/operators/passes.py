@@ -93,30 +93,33 @@ def scale(target: np.ndarray, factor: np.ndarray, workers: int) -> None:
             lambda a, b: np.multiply(target[a:b], factor[a:b], out=target[a:b]))
 
 
-#: rows a share scales at a time in :func:`scale_summed`: the block is summed while it is in cache
+#: rows of the blocks of :func:`scale_summed`: each block is summed while it is in cache
 SUMMED_ROWS = 16
 
 
 def scale_summed(target: np.ndarray, factor: np.ndarray, workers: int) -> float:
-    """target *= factor, in place, by blocks of rows (numpy's broadcasting: a complex target may
-    take a real factor of its shape), and, from the same blocks while they are in cache,
-    Σ t·(f t) over the values of ``target``'s real view (a complex value's real and imaginary
-    parts), in float64: for a spectrum X and a real symbol λ, Σ λ |X|² (Parseval). Each block's
-    sum is BLAS's dot in the block's precision over SUMMED_ROWS rows, the blocks' in float64."""
+    """target *= factor, in place (numpy's broadcasting of one row is not taken: ``factor`` has
+    ``target``'s rows; a complex target may take a real factor), and, from the same blocks of
+    SUMMED_ROWS rows while they are in cache, Σ t·(f t) over the values of ``target``'s real
+    view (a complex value's real and imaginary parts): for a spectrum X and a real symbol λ,
+    Σ λ |X|² (Parseval). Each block's sum is BLAS's dot in the block's precision (n terms, at
+    most n · u of their sum off for positive terms), the blocks' are added in float64 in their
+    order: the same bits whatever the threads, which split the blocks, not the rows."""
+    if not _same_rows(target, factor):
+        raise ValueError(f"scale_summed needs a factor of the target's rows, got {np.shape(factor)} "
+                         f"for {target.shape}")
     real = target.view(target.real.dtype) if np.iscomplexobj(target) else target
-    parts: dict[int, float] = {}
+    rows = target.shape[0]
+    sums = np.zeros(-(-rows // SUMMED_ROWS))
 
-    def work(start: int, stop: int) -> None:
-        total = 0.0
-        block = np.empty((min(SUMMED_ROWS, stop - start),) + target.shape[1:], dtype=target.dtype)
-        for first in range(start, stop, SUMMED_ROWS):
-            last = min(first + SUMMED_ROWS, stop)
+    def work(first_block: int, last_block: int) -> None:
+        block = np.empty((SUMMED_ROWS,) + target.shape[1:], dtype=target.dtype)
+        for index in range(first_block, last_block):
+            first, last = index * SUMMED_ROWS, min(index * SUMMED_ROWS + SUMMED_ROWS, rows)
             scaled = block[:last - first]
             np.multiply(target[first:last], factor[first:last], out=scaled)
-            total += float(np.dot(real[first:last].reshape(-1), scaled.view(real.dtype).reshape(-1)))
+            sums[index] = np.dot(real[first:last].reshape(-1), scaled.view(real.dtype).reshape(-1))
             target[first:last] = scaled
-        parts[start] = total               # one key per share: no two shares write the same one
 
-    by_rows(_threads(target, workers), target.shape[0], work)
-    # added in the rows' order, whichever share ended first: the same threads give the same bits
-    return float(sum(parts[start] for start in sorted(parts)))
+    by_rows(_threads(target, workers), sums.size, work)
+    return float(sums.sum())

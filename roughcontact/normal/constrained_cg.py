@@ -35,7 +35,8 @@ preconditioner:
    (:mod:`~roughcontact.operators.near_field`, ``CGSettings.defer``). After
    a cut too large to wait, the next H d is held between its transforms
    with dᵀHd read off its spectrum (Parseval); where that step cuts too,
-   H (c − α d) is one product and H d's inverse transforms are skipped;
+   H (c − α d) is one product and H d's inverse transforms are skipped, as
+   on a step that ends in an exact H p (a refresh);
 4. the load is restored exactly, p ← p · P/Σp.
 
 Load control with free rotation (imposed moments) is a Newton iteration on
@@ -594,14 +595,20 @@ class ConstrainedCGSolver(NormalSolver):
             # an iteration whose cut could not wait and on the first step from a coarse grid's
             # or the punches' start (``holding``): such cuts come in runs, and the step then
             # decides below whether H d itself is wanted or only H of the step and its cut
-            # together. Elsewhere H d is made whole: reading dᵀHd off the spectrum costs a pass
-            # over it that only a joined product repays. On a dense set the direction field
+            # together. Held too where the step ends in an exact H p. Elsewhere H d is made
+            # whole: reading dᵀHd off the spectrum costs a pass over it that only a joined
+            # product or a skipped inverse repays. On a dense set the direction field
             # itself (d on the set, zero elsewhere) goes into the transform whole, where
             # scattering d at the set's positions cost three passes over the slab (the product
             # 0.81-0.85 of the time near full contact at 1024² and 2048², 86 % of the nodes in
             # the set)
             crowded = dense(working.size, forces.size)
-            if holding:
+            # once, where the residual first reaches SINGLE_FLOOR: an exact H p drops the
+            # single-precision errors of the large early steps (``CGSettings.precision``). A step
+            # that ends in an exact H p (that, or a refresh) needs dᵀHd alone: H d is held too
+            floor = single and forces_in_double and not at_floor and residual <= SINGLE_FLOOR
+            refreshing = floor or since_refresh + 1 >= settings.refresh
+            if (holding or refreshing) and holds:
                 held_product, product = (pb.held_displacement(direction, single) if crowded
                                          else pb.held_displacement_at(step_direction, working, single)), None
                 curvature = float(pb.allsum(held_product.energy))
@@ -640,11 +647,8 @@ class ConstrainedCGSolver(NormalSolver):
             forces[working] = trial
             del trial, leaving
             since_refresh += 1
-            # once, where the residual first reaches SINGLE_FLOOR: an exact H p drops the
-            # single-precision errors of the large early steps (``CGSettings.precision``)
-            floor = single and forces_in_double and not at_floor and residual <= SINGLE_FLOOR
             at_floor = at_floor or floor
-            if since_refresh >= settings.refresh or floor:
+            if refreshing:
                 del held_product, product, displacement   # H d unused (held: its inverse transforms skipped)
                 displacement = exact()
                 since_refresh = 0
@@ -689,8 +693,8 @@ class ConstrainedCGSolver(NormalSolver):
                     clipped[working] -= step * direction[working]
                     join = scattered
                 # (the ledger is empty after a cut that could not wait; it is settled in case not)
-                displacement += pending.settle(clipped, working, join) if pending is not None and pending.count \
-                    else join(clipped, working)
+                settling = pending is not None and pending.count
+                displacement += pending.settle(clipped, working, join) if settling else join(clipped, working)
                 _clear(clipped, None if crowded else working)
             else:
                 if held_product is not None:

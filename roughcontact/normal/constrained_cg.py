@@ -472,6 +472,10 @@ class ConstrainedCGSolver(NormalSolver):
         # H d held this iteration: the last cut could not wait, or the first step of a fresh start
         holds = pb.flexibility.holds                   # whether the operator's products can be held
         holding = owned and self._fresh and holds
+        # H of a nodal vector that is zero off some nodes: only those nodes go into the transform
+        # (``scattered``), or the whole vector (``whole``, a dense set); ``single`` as it stands
+        scattered = lambda values, nodes: pb.displacement_at(values[nodes], nodes, single)  # noqa: E731
+        whole = lambda values, nodes: pb.displacement(values, single)                       # noqa: E731
         for iteration in range(1, settings.max_iterations + 1):
             restarts.clear()
             # the set now, into the scratch mask: in_contact still holds the last step's set, and
@@ -678,9 +682,6 @@ class ConstrainedCGSolver(NormalSolver):
                 # after a start, the set settling); a settle of small cuts that added up is not
                 holding = holds and cut and not (count <= self._deferred_nodes
                                                  and pending.bound_of(mass) <= allowed)
-            # H of forces at some nodes (zero elsewhere) of a nodal vector: only those nodes go
-            # into the transform
-            scattered = lambda values, nodes: pb.displacement_at(values[nodes], nodes, single)  # noqa: E731
             if joined and held_product is not None:
                 del held_product, product              # its spectrum is overwritten by the next transform
                 # c − α d into ``clipped`` (d is zero off the set); on a dense set the whole vector,
@@ -688,10 +689,9 @@ class ConstrainedCGSolver(NormalSolver):
                 # otherwise), so that both write paths transform the same field
                 if crowded:
                     clipped -= step * direction
-                    join = lambda values, nodes: pb.displacement(values, single)          # noqa: E731
                 else:
                     clipped[working] -= step * direction[working]
-                    join = scattered
+                join = whole if crowded else scattered
                 # (the ledger is empty after a cut that could not wait; it is settled in case not)
                 settling = pending is not None and pending.count
                 displacement += pending.settle(clipped, working, join) if settling else join(clipped, working)

@@ -297,7 +297,7 @@ class SlabConvolution:
         straight into the padded rows buffer, where only the positions of the last such call are
         cleared: that saves zeroing a slab of N values and copying it in. An x at more than one
         node in DENSE_WRITE is scattered into a flat slab and copied in."""
-        return self._filtered(self._transform(single, self._written_at(values, positions, single)), single)
+        return self._filtered(self._transform_at(values, positions, single), single)
 
     def held(self, field: np.ndarray, single: bool = False) -> HeldProduct:
         """:meth:`apply` stopped before its inverse transforms, with xᵀ(k ⊛ x) read off the
@@ -306,7 +306,7 @@ class SlabConvolution:
 
     def held_at(self, values, positions: np.ndarray, single: bool = False) -> HeldProduct:
         """:meth:`apply_at` stopped before its inverse transforms, as :meth:`held`."""
-        return self._held(self._transform(single, self._written_at(values, positions, single)), single)
+        return self._held(self._transform_at(values, positions, single), single)
 
     def _held(self, spectrum: np.ndarray, single: bool) -> HeldProduct:
         # Parseval over the half spectrum of a real field: every column ky stands for itself and
@@ -331,8 +331,7 @@ class SlabConvolution:
         it is cropped to the grid: on a period longer than the grid the crop is strided, and
         reading it flat copied the whole slab (67 MB a call at 4096² in single precision). A
         dense x is read back through the columns buffer, free once the product is made."""
-        occupied = self._written_at(values, positions, single)
-        whole = self._filtered(self._transform(single, occupied), single, crop=False)
+        whole = self._filtered(self._transform_at(values, positions, single), single, crop=False)
         index = self._written[single]
         if index is not None:
             return whole.reshape(-1)[index]
@@ -340,6 +339,11 @@ class SlabConvolution:
         flat = _flat_slab(*self._padded(single), whole.shape[0] * self.shape[1])
         passes.copy(flat.reshape(whole.shape[0], -1), whole[:, :self.shape[1]], self.workers)
         return flat[positions]
+
+    def _transform_at(self, values, positions: np.ndarray, single: bool) -> np.ndarray:
+        """The transform of ``values`` at the slab ``positions`` and zeros elsewhere, written as
+        :meth:`_written_at` writes them and only their rows transformed along y."""
+        return self._transform(single, self._written_at(values, positions, single))
 
     def _written_at(self, values, positions: np.ndarray, single: bool) -> np.ndarray:
         """Write ``values`` at the slab ``positions`` into the zeroed rows buffer of one precision;
@@ -558,8 +562,8 @@ class SlabConvolution:
 class HeldProduct:
     """k ⊛ x stopped between its transforms: the spectrum of x times the symbol, left in the
     convolution's columns buffer, and ``energy``, this rank's part of xᵀ(k ⊛ x) over the grid
-    (twice the elastic energy of forces x),
-    read off that spectrum by Parseval's theorem (x is zero off the grid, so the padded circular
+    (twice the elastic energy of forces x), read off that spectrum by Parseval's theorem (x is
+    zero off the grid, so the padded circular
     product's quadratic form is the linear one's). The constrained CG needs dᵀHd of a search
     direction before it knows whether the step's own H d is wanted or only H of the step and
     its cut together (:mod:`roughcontact.normal.constrained_cg`): a product left held skips its
@@ -572,13 +576,13 @@ class HeldProduct:
         self.energy = energy
         self._stamp = stamp
 
-    def result(self, crop: bool = True) -> np.ndarray:
+    def result(self) -> np.ndarray:
         """k ⊛ x as :meth:`SlabConvolution.apply` gives it (once: the inverse overwrites the spectrum)."""
         if self.spectrum is None or self.convolution._stamp != self._stamp:
             raise RuntimeError("a held product was completed twice, or after another transform of "
                                "its convolution overwrote its spectrum")
         spectrum, self.spectrum = self.spectrum, None
-        return self.convolution.backward(spectrum, crop)
+        return self.convolution.backward(spectrum)
 
 
 def _folded(length: int) -> np.ndarray:

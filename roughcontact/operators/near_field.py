@@ -100,7 +100,7 @@ class PendingFarField:
 
     def bound(self, mass: float = 0.0) -> float:
         """The most the deferred far fields, and those of ``mass`` more, add to any node."""
-        return self.near.far_bound * (self.mass + mass)
+        return self.bound_of(self.mass + mass)
 
     def bound_of(self, mass: float) -> float:
         """The most the far fields of forces of sum ``mass`` alone add to any node."""

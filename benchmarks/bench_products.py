@@ -22,7 +22,10 @@ pressure 0.01 E*, rotation fixed; benchmarks/bench_normal_large.py);
 ``full`` the same with fractal dimension 2.5 at 1 E*, near full contact.
 The sweep row is the 10-step tangential sweep to fP of
 benchmarks/bench_tangential.py's scene (``benchmarks.common.sweep_scene``:
-midpoint, Δ = 2.3, ν = 0, about 1.4 % of the nodes in contact) at 513², normal and corrective solves by the CG.
+midpoint, Δ = 2.3, ν = 0, about 1.4 % of the nodes in contact) at 513², normal and corrective solves by the CG;
+its corrective solves on the actual contact set by its explicit matrix (the default,
+``restrict``: :mod:`roughcontact.tangential.contact_set`) and on the whole footprint, the two
+alternated in each repeat, with their ratio.
 
     python -m benchmarks.bench_products [--sizes 256 512 1024 2048] [--scenes scene full]
         [--precisions double mixed] [--edge-shares 0.8] [--defers 1] [--sweep 513] [--ranks 1]
@@ -176,19 +179,25 @@ def sweep_rows(comm, args) -> list[dict]:
         settings = CGSettings(precision=precision)
         with make_solver(problem, "cg", settings=settings) as solver:
             normal = solver.solve_load(load)
-        times, sweep = [], None
+        times, sweeps = {True: [], False: []}, {}
         for _ in range(args.repeats):
-            comm.Barrier()
-            t0 = time.perf_counter()
-            sweep = tangential_sweep(problem, normal, 0.6, steps=10, method="cg", settings=settings)
-            comm.Barrier()
-            times.append(time.perf_counter() - t0)
-        correctives = [s.corrective for s in sweep.states if s.corrective is not None and s.tangential > 0]
-        emit(comm, rows, {
-            "kind": "sweep", "n": n, "ranks": comm.Get_size(), "precision": precision, "steps": 10,
-            "seconds": float(np.median(times)), "seconds_all": times,
-            "corrective_iterations": [c.linear_iterations for c in correctives],
-            "contact_fraction": normal.contact_fraction})
+            for restrict in (True, False):
+                comm.Barrier()
+                t0 = time.perf_counter()
+                sweeps[restrict] = tangential_sweep(problem, normal, 0.6, steps=10, method="cg",
+                                                    settings=settings, restrict=restrict)
+                comm.Barrier()
+                times[restrict].append(time.perf_counter() - t0)
+        for restrict, sweep in sweeps.items():
+            correctives = [s.corrective for s in sweep.states if s.corrective is not None and s.tangential > 0]
+            emit(comm, rows, {
+                "kind": "sweep", "n": n, "ranks": comm.Get_size(), "precision": precision, "steps": 10,
+                "restrict": restrict, "seconds": float(np.median(times[restrict])),
+                "seconds_all": times[restrict],
+                "restricted_over_whole": float(np.median(times[True]) / np.median(times[False])),
+                "corrective_iterations": [c.linear_iterations for c in correctives],
+                "corrective_choice": correctives[0].choice if correctives else "",
+                "contact_fraction": normal.contact_fraction})
     problem.destroy()
     return rows
 

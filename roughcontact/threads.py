@@ -27,12 +27,18 @@ _controller = None
 
 
 @contextmanager
-def single_blas_thread():
-    """Within the block, every loaded BLAS library uses one thread; the previous limits after it."""
+def blas_threads(count: int):
+    """Within the block, every loaded BLAS library uses ``count`` threads; the previous limits
+    after it."""
     global _controller
     if _controller is None:
         from threadpoolctl import ThreadpoolController
 
         _controller = ThreadpoolController()
-    with _controller.limit(limits=1, user_api="blas"):
+    with _controller.limit(limits=count, user_api="blas"):
         yield
+
+
+def single_blas_thread():
+    """Within the block, every loaded BLAS library uses one thread; the previous limits after it."""
+    return blas_threads(1)

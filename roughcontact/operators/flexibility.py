@@ -9,7 +9,10 @@ Every solver sees H through a :class:`Flexibility`:
   periodic cell, :mod:`.periodic`);
 - :meth:`Flexibility.product`: H x over the whole footprint by FFT for
   every kind (the same numbers as the dense product to round-off, at
-  O(N log N) instead of O(N²)), used for every gap evaluation;
+  O(N log N) instead of O(N²)), used for every gap evaluation; but for a
+  dense operator on a footprint that is a small part of its grid (a
+  contact set), whose matrix product is cheaper than the FFT over the grid
+  (:func:`explicit_products_pay`);
 - :meth:`Flexibility.block`: H_SS on a contact set S for the Krylov inner
   solves: an explicit matrix gathered from the Eq. 10 table when S is small
   enough that its dense product is cheaper than an FFT, otherwise the
@@ -28,11 +31,35 @@ import numpy as np
 from petsc4py import PETSc
 
 from ..errors import InputError
+from ..threads import blas_threads
 from . import passes
 from .convolution import SlabConvolution
 from .kernel import kernel_block, punch_block, punch_kernel
 from .layout import NodeLayout
 from .memory import EXPLICIT_BYTES, EXPLICIT_RATIO, KINDS, TABLE_BYTES
+
+
+def sparse_footprint(layout: NodeLayout) -> bool:
+    """Whether the footprint holds at most an eighth of its grid's nodes: the dense matrix's entries
+    are then read from the Eq. 10 table node by node (:func:`~.kernel.kernel_block`, 0.19 s for
+    the 3 731 nodes of a 513² grid's contact set), not as the windows of
+    :func:`~.dense.assemble_flexibility`, which read the whole grid for each node of a footprint
+    whose rows are not whole (0.72 s there)."""
+    return 8 * layout.size <= layout.shape[0] * layout.shape[1]
+
+
+def explicit_products_pay(layout: NodeLayout, comm) -> bool:
+    """Whether the dense operator's products go through its matrix rather than the FFT over the
+    grid: while N² ≤ EXPLICIT_RATIO · nx ny (N the footprint's nodes) and the rank with the most
+    rows holds at most EXPLICIT_BYTES of them in double and single precision (the same on every
+    rank). On the 3 731 contact nodes of a 513² grid (N² = 53 nx ny) a product took 1.5 ms in
+    single precision and 4.3 ms in double (two BLAS threads; 3.0 and 7.9 ms on one), the padded
+    FFT product 9.0 and 15.0 ms (medians of 21). A whole
+    grid of more than EXPLICIT_RATIO nodes (the ≤ 33² the dense operator is chosen for) keeps the
+    FFT's products."""
+    largest = max(comm.allgather(layout.local_size))
+    return (layout.size * layout.size <= EXPLICIT_RATIO * layout.shape[0] * layout.shape[1]
+            and 12 * layout.size * largest <= EXPLICIT_BYTES)
 
 
 class Flexibility:
@@ -82,7 +109,16 @@ class Flexibility:
         self._near_field = None                       # NearField, False where none applies
         # the slab a product writes a footprint's nodes into; whole rows are their own slab (a view)
         self._slab = None if self.layout.whole_rows else np.zeros((r1 - r0, self.shape[1]))
-        if kind == "dense":
+        #: products by the explicit matrix rather than the FFT (:meth:`product`)
+        self.explicit_products = kind == "dense" and explicit_products_pay(self.layout, comm)
+        self._single_rows = None
+        # every rank's nodes, for the x an explicit product gathers
+        self._counts = np.array(comm.allgather(self.layout.local_size)) if self.explicit_products else None
+        if kind == "dense" and sparse_footprint(self.layout):
+            # a footprint that is a small part of its grid: its entries read from the table node
+            # by node (the windows of the assembly below read the whole grid for each node)
+            self.mat = self._explicit_block(np.ones(self.layout.local_size, bool), self.layout.size)
+        elif kind == "dense":
             from .dense import assemble_flexibility
 
             # the assembly reads every node's position: a footprint held by rows is gathered (N bytes,
@@ -104,7 +140,9 @@ class Flexibility:
         self.shape = self.layout.shape
         self.spacing = topography.spacing
         self.convolution = self._table = self._preconditioner = None
-        self._slab = self._near_field = None
+        self._slab = self._near_field = self._single_rows = None
+        self.explicit_products = False
+        self._counts = None
         self.mat = mat
         rows = tuple(mat.getOwnershipRange())
         if mat.getSize()[0] != self.layout.size or rows != (self.layout.start, self.layout.stop):
@@ -136,7 +174,9 @@ class Flexibility:
     def product(self, values: np.ndarray, single: bool = False) -> np.ndarray:
         """H x on this rank's nodes, for x given on this rank's nodes (whole footprint);
         ``single``: the FFT in single precision (relative error ~1e-7, :mod:`.convolution`;
-        a user's Mat ignores it), the result still float64."""
+        explicit products in float32; a user's Mat ignores it), the result still float64."""
+        if self.explicit_products:
+            return self._explicit_product(values, single)
         if self.convolution is None:
             x, y = self.mat.createVecs()
             x.getArray()[:] = values
@@ -156,17 +196,39 @@ class Flexibility:
         """H x on this rank's nodes for x equal to ``values`` on this rank's ``nodes`` (local
         indices) and zero elsewhere, as :meth:`product`: a sparse x (a search direction on the
         free set, the forces a cut restores) goes into the transform without a vector of N."""
-        if self.convolution is None:
+        if self.convolution is None or self.explicit_products:
             full = np.zeros(self.layout.local_size)
             full[nodes] = values
             return self.product(full, single)
         return self._nodal(self.convolution.apply_at(values, self.layout.slab_positions(nodes), single))
 
+    def _explicit_product(self, values: np.ndarray, single: bool) -> np.ndarray:
+        """H x by this rank's rows of the explicit matrix and every rank's x (collective);
+        ``single``: rows and x in float32 (the rows' float32 copy made on first use)."""
+        rows = np.asarray(self.mat.getDenseArray(readonly=True))      # (local, N), a view
+        if single:
+            if self._single_rows is None:
+                self._single_rows = rows.astype(np.float32)
+            rows = self._single_rows
+        local = np.ascontiguousarray(values, dtype=rows.dtype)
+        whole = np.empty(self.layout.size, dtype=rows.dtype)
+        if self.comm.Get_size() == 1:
+            whole[:] = local
+        else:
+            self.comm.Allgatherv(local, [whole, self._counts])
+        with blas_threads(self.workers):
+            return (rows @ whole).astype(float, copy=False)
+
+    @property
+    def workers(self) -> int:
+        """Threads of this rank's transforms, and of its explicit products."""
+        return self.convolution.workers if self.convolution is not None else 1
+
     @property
     def holds(self) -> bool:
         """Whether a product can be held between its transforms (:meth:`held_product`): not on a
-        user's Mat, which has none."""
-        return self.convolution is not None
+        user's Mat, which has none, nor where products are explicit."""
+        return self.convolution is not None and not self.explicit_products
 
     def held_product(self, values: np.ndarray, single: bool = False) -> HeldNodal:
         """:meth:`product` held between its transforms, with xᵀHx known (:class:`HeldNodal`)."""
@@ -226,7 +288,7 @@ class Flexibility:
         """Direct sums of the kernel near a few forces (:mod:`.near_field`), built on first use;
         None where they do not apply (a periodic operator, a user's Mat, a footprint that is not
         the whole grid). The same decision on every rank."""
-        if self.convolution is None:
+        if self.convolution is None or self.explicit_products:
             return None
         if self._near_field is None:
             from .near_field import NearField
@@ -291,7 +353,7 @@ class Flexibility:
         """Free the PETSc Mat (collective)."""
         if self.mat is not None:
             self.mat.destroy()
-        self.mat = None
+        self.mat = self._single_rows = None
 
 
 class HeldNodal:

@@ -33,12 +33,13 @@ import warnings
 import numpy as np
 
 from ..collective import Collective
-from ..errors import ConvergenceError
+from ..errors import ConvergenceError, InputError
 from ..normal.choice import choose_method
 from ..normal.factory import make_solver, solver_class
 from ..normal.problem import NormalProblem
 from ..normal.result import NormalResult
 from .checks import check_direction, check_friction, check_normal, check_tangential, full_sliding
+from .contact_set import ContactSetSolver, contact_set_pays
 from .energy import frictional_energy, stored_energy
 from .model import COULOMB_TOLERANCE, CattaneoConsistencyWarning, cattaneo_model
 from .result import TangentialState, centroid_of
@@ -89,6 +90,13 @@ class CattaneoSolver(Collective):
     method
         The corrective solver's method (``"auto"``, ``"ksp"``, ``"gauss-seidel"``, ``"cg"``);
         ``"auto"`` is resolved by :func:`~roughcontact.normal.make_solver`.
+    restrict
+        Where the method is the CG and the actual contact set's explicit
+        matrix pays (:func:`~.contact_set.contact_set_pays`), solve each
+        corrective problem on the contact set and confirm it on the whole
+        footprint (:class:`~.contact_set.ContactSetSolver`: the same states,
+        2.4 times as fast on the 513² sweep); False solves on the whole
+        footprint only.
     **solver_options
         Its options: ``settings``, ``rtol``, ``options``, ``prefix`` for the
         active set, ``settings``, ``nested`` for the CG; one the resolved
@@ -103,7 +111,7 @@ class CattaneoSolver(Collective):
     """
 
     def __init__(self, problem: NormalProblem, normal: NormalResult, friction: float,
-                 direction=(1.0, 0.0), method: str = "auto", **solver_options):
+                 direction=(1.0, 0.0), method: str = "auto", restrict: bool = True, **solver_options):
         self.friction = check_friction(friction)
         self.direction = check_direction(direction)
         check_normal(problem, normal)
@@ -114,6 +122,10 @@ class CattaneoSolver(Collective):
         if "prefix" in solver_class(name).OPTIONS:
             solver_options.setdefault("prefix", "cattaneo_")
         self.solver = make_solver(problem, method, **solver_options)
+        if not isinstance(restrict, (bool, np.bool_)):
+            raise InputError("restrict", f"must be True or False, got {restrict!r}")
+        if restrict and name == "cg" and contact_set_pays(problem, normal.contact):
+            self.solver = ContactSetSolver(problem, normal, self.solver)
         # warm start of the first corrective solve: the actual contact set and motion (Eq. 23
         # receding: the stick set is a subset of it)
         self.solver.warm_start(normal)

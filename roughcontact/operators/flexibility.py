@@ -49,14 +49,14 @@ def sparse_footprint(layout: NodeLayout) -> bool:
 
 
 def explicit_products_pay(layout: NodeLayout, comm) -> bool:
-    """Whether the dense operator's products go through its matrix rather than the FFT over the
-    grid: while N² ≤ EXPLICIT_RATIO · nx ny (N the footprint's nodes) and the rank with the most
+    """Whether a dense operator's products on a sparse footprint (:func:`sparse_footprint`) go
+    through its matrix rather than the FFT over the grid (collective): while
+    N² ≤ EXPLICIT_RATIO · nx ny (N the footprint's nodes) and the rank with the most
     rows holds at most EXPLICIT_BYTES of them in double and single precision (the same on every
     rank). On the 3 731 contact nodes of a 513² grid (N² = 53 nx ny) a product took 1.5 ms in
     single precision and 4.3 ms in double (two BLAS threads; 3.0 and 7.9 ms on one), the padded
     FFT product 9.0 and 15.0 ms (medians of 21). A whole
-    grid of more than EXPLICIT_RATIO nodes (the ≤ 33² the dense operator is chosen for) keeps the
-    FFT's products."""
+    grid, or a footprint of more than an eighth of it, keeps the FFT's products."""
     largest = max(comm.allgather(layout.local_size))
     return (layout.size * layout.size <= EXPLICIT_RATIO * layout.shape[0] * layout.shape[1]
             and 12 * layout.size * largest <= EXPLICIT_BYTES)
@@ -96,21 +96,25 @@ class Flexibility:
         self.convolution = SlabConvolution(self.shape, comm, periodic=self.periodic, workers=workers)
         self._table = None
         r0, r1 = self.layout.rows
+        #: products by the explicit matrix rather than the FFT (:meth:`product`)
+        self.explicit_products = (kind == "dense" and sparse_footprint(self.layout)
+                                  and explicit_products_pay(self.layout, comm))
+        # the FFT's symbol, of the whole grid, is made when a transform first needs it: explicit
+        # products need none
+        self._kernel_set = False
         if self.periodic:
             table = self._whole_table()              # the Ewald sum makes the whole period at once
             self.convolution.set_kernel(table[r0:r1])
+            self._kernel_set = True
             self.diagonal = float(table[0, 0])
         else:
-            # only this rank's rows of the Eq. 10 table: no array of N entries on every rank
-            self.convolution.set_kernel(punch_kernel(self.shape, self.spacing, self.compliance,
-                                                     rows=np.arange(r0, r1)))
+            if not self.explicit_products:
+                self._set_kernel()
             self.diagonal = float(punch_kernel((1, 1), self.spacing, self.compliance)[0, 0])
         self._preconditioner = None
         self._near_field = None                       # NearField, False where none applies
         # the slab a product writes a footprint's nodes into; whole rows are their own slab (a view)
         self._slab = None if self.layout.whole_rows else np.zeros((r1 - r0, self.shape[1]))
-        #: products by the explicit matrix rather than the FFT (:meth:`product`)
-        self.explicit_products = kind == "dense" and explicit_products_pay(self.layout, comm)
         self._single_rows = None
         # every rank's nodes, for the x an explicit product gathers
         self._counts = np.array(comm.allgather(self.layout.local_size)) if self.explicit_products else None
@@ -141,6 +145,7 @@ class Flexibility:
         self.spacing = topography.spacing
         self.convolution = self._table = self._preconditioner = None
         self._slab = self._near_field = self._single_rows = None
+        self._kernel_set = False
         self.explicit_products = False
         self._counts = None
         self.mat = mat
@@ -216,6 +221,7 @@ class Flexibility:
             whole[:] = local
         else:
             self.comm.Allgatherv(local, [whole, self._counts])
+        # the rank's transform threads (one per rank where the ranks share the node's cores)
         with blas_threads(self.workers):
             return (rows @ whole).astype(float, copy=False)
 
@@ -242,7 +248,17 @@ class Flexibility:
     def _convolution_of(self, what: str) -> SlabConvolution:
         if self.convolution is None:
             raise InputError("operator", f"{what} need an operator built from a topography, not a user Mat")
+        if not self._kernel_set:
+            self._set_kernel()
         return self.convolution
+
+    def _set_kernel(self) -> None:
+        """The convolution's symbol from this rank's rows of the Eq. 10 table (collective): no array
+        of N entries on every rank."""
+        r0, r1 = self.layout.rows
+        self.convolution.set_kernel(punch_kernel(self.shape, self.spacing, self.compliance,
+                                                 rows=np.arange(r0, r1)))
+        self._kernel_set = True
 
     def _nodal(self, result: np.ndarray) -> np.ndarray:
         """This rank's nodes of a product on its slab rows, float64, a new contiguous array."""

@@ -28,6 +28,12 @@ own, the high-water mark reset after the surface):
 - ``"dense"`` adds the explicit N × N matrix, 8 N²/ranks bytes, and the
   C-ordered rows its assembly fills (the same memory, handed to PETSc), and
   as much again for a contact-set block (PETSc's sub-matrix of its rows);
+  where its products go through the matrix (a footprint that is a small part
+  of its grid, :func:`~.flexibility.explicit_products_pay`) its rows in
+  float32 as well, 4 N²/ranks, the two within EXPLICIT_BYTES on the busiest
+  rank. A tangential sweep's corrective solves on the actual contact set
+  (:mod:`roughcontact.tangential.contact_set`) hold such an operator beside
+  the whole problem's: at most EXPLICIT_BYTES, as an explicit block would;
 - explicit contact-set blocks H_SS (:func:`explicit_block_memory`), which
   the active set's Krylov solves and the free rotation's Hessian (a study's
   default) build where the contact set is small, and keep through the next

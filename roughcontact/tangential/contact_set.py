@@ -26,23 +26,30 @@ footprint's highest node (Eq. 7), so with the rotation θ fixed
 """
 from __future__ import annotations
 
+import time
 from dataclasses import replace
 
 import numpy as np
 
 from ..collective import Collective
-from ..errors import ConvergenceError
+from ..errors import ConvergenceError, InputError
 from ..normal.factory import make_solver
 from ..normal.problem import NormalProblem
 from ..normal.result import NormalResult
-from ..operators.flexibility import explicit_products_pay
 from ..operators.layout import NodeLayout
+
+#: iterations a part solve may take before the whole solver goes on from its own start (the 513²
+#: sweep's took 26–42; the default limit of the CG, 5 000 unpreconditioned products, would cost
+#: 7–20 s before the whole solver took over)
+PART_ITERATIONS = 500
 
 
 def contact_set_pays(problem: NormalProblem, contact: np.ndarray) -> bool:
     """Whether the corrective solves of ``problem`` go to the contact set ``contact`` (a whole-grid
     mask): the problem holds its topography whole and has an FFT operator on a bounded grid, and
     the contact set's explicit products pay (:func:`~roughcontact.operators.flexibility.explicit_products_pay`)."""
+    from ..operators.flexibility import explicit_products_pay  # PETSc starts when the CLI says
+
     flexibility = problem.flexibility
     if flexibility.convolution is None or flexibility.periodic or problem.topography.by_rows:
         return False
@@ -68,15 +75,27 @@ class ContactSetSolver(Collective):
     """
 
     def __init__(self, problem: NormalProblem, normal: NormalResult, whole):
+        from ..normal.constrained_cg import ConstrainedCGSolver
+
+        if not isinstance(whole, ConstrainedCGSolver):
+            raise InputError("method", "the corrective solves on the contact set confirm by the CG; "
+                                       f"got a {type(whole).__name__}")
+        if not contact_set_pays(problem, normal.contact):
+            raise InputError("normal", f"its contact set ({int(normal.contact.sum())} nodes) is not one whose "
+                                       "explicit products pay (contact_set_pays)")
         self.problem = problem
         self.whole = whole
         self.part = NormalProblem(problem.topography.with_footprint(normal.contact), problem.interface,
                                   problem.comm, operator="dense", workers=problem.flexibility.workers)
-        self.solver = make_solver(self.part, "cg", settings=replace(whole.settings, preconditioner="none"),
-                                  nested=False)
-        theta_x, theta_y = normal.rotation
-        (xc, yc), (xp, yp) = problem.centroid, self.part.centroid
-        self._shift = theta_x * (yc - yp) + theta_y * (xc - xp) + self.part.top_height - problem.top_height
+        settings = whole.settings
+        self.solver = make_solver(self.part, "cg", nested=False, settings=replace(
+            settings, preconditioner="none", max_iterations=min(settings.max_iterations, PART_ITERATIONS)))
+
+    def _shift(self, rotation) -> float:
+        """δz_part − δz under the rotation (θx, θy): the same interpenetration on C (Eq. 7)."""
+        theta_x, theta_y = rotation
+        (xc, yc), (xp, yp) = self.problem.centroid, self.part.centroid
+        return theta_x * (yc - yp) + theta_y * (xc - xp) + self.part.top_height - self.problem.top_height
 
     @property
     def settings(self):
@@ -106,26 +125,33 @@ class ContactSetSolver(Collective):
     def solve_load(self, load: float, rotation: tuple[float, float]) -> NormalResult:
         """The corrective solution at P* with the rotation fixed, of the whole problem: solved on C,
         confirmed (or completed) on the whole footprint from there. Its ``linear_iterations``
-        count both solves' iterations, its ``choice`` says how many each took."""
+        count both solves' iterations and its ``elapsed`` both solves' time; its ``choice`` says how
+        many iterations each took."""
         self._check_alive()
+        t0 = time.perf_counter()
         try:
             part = self.solver.solve_load(load, rotation=rotation, gather=False)
         except ConvergenceError:
             part = None                                 # the whole solver goes on from its own start
         if part is not None:
             self.whole.start_from(self._to_whole(self.solver.forces),
-                                  self.solver.rigid - np.array([self._shift, 0.0, 0.0]))
+                                  self.solver.rigid - np.array([self._shift(rotation), 0.0, 0.0]))
         result = self.whole.solve_load(load, rotation=rotation)
         iterations = part.linear_iterations if part is not None else 0
-        how = (f"{iterations} iterations on the contact set's {self.part.size} nodes (explicit products)"
-               if part is not None else f"no solution on the contact set's {self.part.size} nodes")
+        nodes = self.part.size
+        how = (f"{iterations} iterations on the contact set's {nodes} nodes (explicit products)"
+               if part is not None else f"no solution within {PART_ITERATIONS} iterations on the contact "
+                                        f"set's {nodes} nodes")
+        choice = f"{result.choice}; corrective: {how}, then {result.linear_iterations} on the whole footprint"
         return replace(result, linear_iterations=result.linear_iterations + iterations,
-                       choice=f"{result.choice}; corrective: {how}, then {result.linear_iterations} "
-                              "on the whole footprint")
+                       elapsed=time.perf_counter() - t0, choice=choice)
 
     def _start_part(self) -> None:
-        self.solver.start_from(self._to_part(self.whole.forces),
-                               self.whole.rigid + np.array([self._shift, 0.0, 0.0]))
+        # with the rotation fixed, as in every corrective solve, the CG finds δz from the load and
+        # the start's is not read; the shift keeps the start a state of the part problem all the same
+        rigid = self.whole.rigid
+        shift = np.array([self._shift(rigid[1:]), 0.0, 0.0])
+        self.solver.start_from(self._to_part(self.whole.forces), rigid + shift)
 
     def _to_part(self, values: np.ndarray) -> np.ndarray:
         """This rank's values on C from its values on the whole footprint (the same grid rows)."""

@@ -4,7 +4,10 @@ Each Q needs one corrective normal solve at P* = P − Q/f (Eq. 23); as Q
 grows P* falls and the stick set recedes, so one corrective solver,
 started each time from the line through the last two corrective solutions
 (:class:`CattaneoSolver`), does each step in a few active-set iterations
-(17–24 CG iterations at 513²). :class:`TangentialSweep` records the sweep's wall
+(17–25 CG iterations at 513² on the whole footprint; 26–39 on the actual
+contact set, where the corrective solves go when its explicit matrix pays,
+and one more that confirms each on the footprint: :mod:`.contact_set`).
+:class:`TangentialSweep` records the sweep's wall
 time; ``benchmarks/bench_tangential.py`` measures it against a normal solve.
 """
 from __future__ import annotations
@@ -125,7 +128,7 @@ def tangential_sweep(problem: NormalProblem, normal: NormalResult, friction: flo
         whose frictional energy is E_tot (Eq. 27).
     **solver_options
         ``method``, ``settings``, ``rtol``, ``options``, ``prefix`` of the
-        corrective solver (:class:`CattaneoSolver`).
+        corrective solver, and ``restrict`` (:class:`CattaneoSolver`).
     """
     friction, loads = sweep_loads(problem, normal, friction, steps, tangential,
                                   "for load reversals use fretting_cycle")

@@ -119,20 +119,26 @@ def test_hertz_cattaneo_mindlin_converges(hertz16, hertz32):
         assert err32[key] < err16[key], (key, err16, err32)
 
 
-def test_hertz_stick_zone_moves_rigidly(hertz16):
+def test_hertz_stick_zone_moves_rigidly(hertz16, comm):
     """Eq. 20: u_x = H q equals δx on the stick set; g ≥ 0 and 0 ≤ q ≤ f p (Eq. 14a) everywhere.
 
-    u_x is computed from the traction with the flexibility operator, δx from
+    u_x is computed here from the traction with the flexibility operator, δx from
     the two approaches (Eq. 24): they agree to the inner solver's tolerance
-    (rtol 1e-11, active-set tol 1e-8), so 1e-7 of δx.
+    (rtol 1e-11, active-set tol 1e-8), so 1e-7 of δx; and the state's u_x, δx + f (g − g*)
+    from the solves' gaps, equals that product to the same tolerance.
     """
-    _, _, sweep = hertz16
+    topo, _, sweep = hertz16
+    problem = NormalProblem(topo, EXACT, comm)
     for state in sweep.states[1:-1]:
-        stick_u = state.displacement[state.stick]
+        dx = state.tangential_approach
+        u = problem.gather(problem.displacement(state.traction.ravel()[problem.start:problem.stop]))
+        np.testing.assert_allclose(state.displacement.ravel(), u, rtol=0.0, atol=1e-7 * dx)
+        stick_u = u[state.stick.ravel()]
         assert np.abs(stick_u - state.tangential_approach).max() < 1e-7 * state.tangential_approach
         assert state.slip_distance[state.slip].min(initial=0.0) > -1e-7 * state.tangential_approach
         assert state.coulomb_violation < 1e-7
         assert state.stick_force + state.slip_force == pytest.approx(state.tangential, rel=1e-9)
+    problem.destroy()
 
 
 def test_hertz_incipient_sliding_energy(hertz16, hertz32):

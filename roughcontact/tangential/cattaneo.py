@@ -189,8 +189,14 @@ class CattaneoSolver(Collective):
         slip_distance = np.where(normal.contact, 0.0, np.nan)
         slip_distance[slip] = f * corrective.gap[slip]
         approach = f * (normal.closure - corrective.closure)
+        # u_x = H q̄ = f (H p − H p*) (Eqs. 17, 21), and H p = g + w(δz) for each solution, with the
+        # same rotation (Eq. 23): u_x = δx + f (g − g*) on the footprint (Eq. 24), NaN off it; δx on
+        # the stick set (Eq. 20), δx − f g* on the slip set. The gaps are the solves' own, exact off
+        # their contact sets and zero on them to the solves' tolerance: no product per state
+        displacement = approach + f * (normal.gap - corrective.gap)
         return self._state(q_load, corrective, traction, stick, slip, slip_distance, approach,
-                           normal.load - q_load / f, corrective.closure, limit=False, t0=t0)
+                           normal.load - q_load / f, corrective.closure, limit=False, t0=t0,
+                           displacement=displacement)
 
     def incipient_sliding(self) -> TangentialState:
         """The limit Q → fP⁻ of incipient full sliding (§5.2, Eq. 27).
@@ -237,10 +243,11 @@ class CattaneoSolver(Collective):
         self.solver.start_from(forces1 + ratio * (forces1 - forces0), rigid)
 
     def _state(self, q_load, corrective, traction, stick, slip, slip_distance, approach,
-               corrective_load, corrective_closure, limit, t0) -> TangentialState:
+               corrective_load, corrective_closure, limit, t0, displacement=None) -> TangentialState:
         f, normal, pb = self.friction, self.normal, self.problem
         s = pb.topography.spacing
-        displacement = self._displacement(traction)
+        if displacement is None:
+            displacement = self._displacement(traction)
         q_stick = float(traction[stick].sum())
         q_slip = float(traction[slip].sum())
         contact = normal.contact
@@ -268,7 +275,8 @@ class CattaneoSolver(Collective):
             beta=float(self.problem.interface.dundurs_beta))
 
     def _displacement(self, traction: np.ndarray) -> np.ndarray:
-        """u_x = H q̄ (Eq. 17) on the footprint, NaN outside it."""
+        """u_x = H q̄ (Eq. 17) on the footprint, NaN outside it, by one product: the incipient-sliding
+        limit's (a partial-slip state's comes from the two solves' gaps, :meth:`solve`)."""
         pb = self.problem
         values = traction[pb.topography.footprint][pb.start:pb.stop]
         return pb.to_field(pb.gather(pb.displacement(values)), np.nan)

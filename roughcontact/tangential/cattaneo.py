@@ -124,15 +124,15 @@ class CattaneoSolver(Collective):
         if not isinstance(restrict, (bool, np.bool_)):
             raise InputError("restrict", f"must be True or False, got {restrict!r}")
         self.solver = make_solver(problem, method, **solver_options)
-        if restrict and name == "cg" and contact_set_pays(problem, normal.contact):
-            try:
+        try:
+            if restrict and name == "cg" and contact_set_pays(problem, normal.contact):
                 self.solver = ContactSetSolver(problem, normal, self.solver)
-            except BaseException:
-                self.solver.destroy()
-                raise
-        # warm start of the first corrective solve: the actual contact set and motion (Eq. 23
-        # receding: the stick set is a subset of it)
-        self.solver.warm_start(normal)
+            # warm start of the first corrective solve: the actual contact set and motion (Eq. 23
+            # receding: the stick set is a subset of it)
+            self.solver.warm_start(normal)
+        except BaseException:
+            self.solver.destroy()
+            raise
         # (P*, p* on this rank, δz*) of the last corrective solutions; at Q = 0 p* is p itself
         self._history = [(normal.load, self.solver.forces.copy(), float(normal.closure))]
 

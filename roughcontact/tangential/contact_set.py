@@ -47,16 +47,17 @@ PART_ITERATIONS = 500
 def contact_set_pays(problem: NormalProblem, contact: np.ndarray) -> bool:
     """Whether the corrective solves of ``problem`` go to the contact set ``contact`` (a whole-grid
     mask): the problem holds its topography whole and has an FFT operator on a bounded grid, and
-    the contact set's explicit products pay (:func:`~roughcontact.operators.flexibility.explicit_products_pay`)."""
-    from ..operators.flexibility import explicit_products_pay  # PETSc starts when the CLI says
+    the contact set, at most an eighth of the grid, has explicit products that pay
+    (:func:`~roughcontact.operators.flexibility.explicit_products_pay`)."""
+    from ..operators.flexibility import explicit_products_pay, sparse_footprint  # PETSc: when the CLI says
 
     flexibility = problem.flexibility
     if flexibility.convolution is None or flexibility.periodic or problem.topography.by_rows:
         return False
     if not contact.any():
         return False
-    part = problem.topography.with_footprint(contact)
-    return explicit_products_pay(NodeLayout.build(part, problem.comm), problem.comm)
+    layout = NodeLayout.build(problem.topography.with_footprint(contact), problem.comm)
+    return sparse_footprint(layout) and explicit_products_pay(layout, problem.comm)
 
 
 class ContactSetSolver(Collective):
@@ -87,9 +88,14 @@ class ContactSetSolver(Collective):
         self.whole = whole
         self.part = NormalProblem(problem.topography.with_footprint(normal.contact), problem.interface,
                                   problem.comm, operator="dense", workers=problem.flexibility.workers)
+        assert self.part.flexibility.explicit_products     # what contact_set_pays promised
         settings = whole.settings
-        self.solver = make_solver(self.part, "cg", nested=False, settings=replace(
-            settings, preconditioner="none", max_iterations=min(settings.max_iterations, PART_ITERATIONS)))
+        try:
+            self.solver = make_solver(self.part, "cg", nested=False, settings=replace(
+                settings, preconditioner="none", max_iterations=min(settings.max_iterations, PART_ITERATIONS)))
+        except BaseException:
+            self.part.destroy()
+            raise
 
     def _shift(self, rotation) -> float:
         """δz_part − δz under the rotation (θx, θy): the same interpenetration on C (Eq. 7)."""

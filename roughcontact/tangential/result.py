@@ -61,7 +61,10 @@ class TangentialState(LoadedContact):
         Stick set (contact set of p*) and slip set (the rest of the contact set).
     displacement
         Elastic tangential surface displacement u_x = H q̄ (Eq. 17) on the
-        footprint, m (NaN outside it).
+        footprint, m (NaN outside it): δx + f (g − g*) from the two solves'
+        gaps (H q̄ = f (H p − H p*), the rotation the same; Eqs. 20, 24), which
+        equals H q̄ to the solves' tolerance, and exactly δx on the stick set;
+        the incipient-sliding limit's by a product.
     slip_distance
         Relative slip g = δx − u_x = f × (deformed gap of the corrective
         problem) on the slip set (Eqs. 22–23), 0 on the stick set, NaN off contact.

@@ -39,6 +39,14 @@ from .layout import NodeLayout
 from .memory import EXPLICIT_BYTES, EXPLICIT_RATIO, KINDS, TABLE_BYTES
 
 
+def explicit_within(count: int, largest: int, nodes: int, entry_bytes: int) -> bool:
+    """Whether an explicit block of ``count`` nodes is within the bounds of explicit matrices:
+    count² ≤ EXPLICIT_RATIO · ``nodes`` (the nodes whose FFT product it stands in for), and the
+    rank with the ``largest`` share of its rows holds at most EXPLICIT_BYTES of them, at
+    ``entry_bytes`` an entry."""
+    return count * count <= EXPLICIT_RATIO * nodes and entry_bytes * count * largest <= EXPLICIT_BYTES
+
+
 def sparse_footprint(layout: NodeLayout) -> bool:
     """Whether the footprint holds at most an eighth of its grid's nodes: the dense matrix's entries
     are then read from the Eq. 10 table node by node (:func:`~.kernel.kernel_block`, 0.19 s for
@@ -58,8 +66,7 @@ def explicit_products_pay(layout: NodeLayout, comm) -> bool:
     FFT product 9.0 and 15.0 ms (medians of 21). A whole
     grid, or a footprint of more than an eighth of it, keeps the FFT's products."""
     largest = max(comm.allgather(layout.local_size))
-    return (layout.size * layout.size <= EXPLICIT_RATIO * layout.shape[0] * layout.shape[1]
-            and 12 * layout.size * largest <= EXPLICIT_BYTES)
+    return explicit_within(layout.size, largest, layout.shape[0] * layout.shape[1], 12)
 
 
 class Flexibility:
@@ -97,8 +104,8 @@ class Flexibility:
         self._table = None
         r0, r1 = self.layout.rows
         #: products by the explicit matrix rather than the FFT (:meth:`product`)
-        self.explicit_products = (kind == "dense" and sparse_footprint(self.layout)
-                                  and explicit_products_pay(self.layout, comm))
+        sparse = kind == "dense" and sparse_footprint(self.layout)
+        self.explicit_products = sparse and explicit_products_pay(self.layout, comm)
         # the FFT's symbol, of the whole grid, is made when a transform first needs it: explicit
         # products need none
         self._kernel_set = False
@@ -118,7 +125,7 @@ class Flexibility:
         self._single_rows = None
         # every rank's nodes, for the x an explicit product gathers
         self._counts = np.array(comm.allgather(self.layout.local_size)) if self.explicit_products else None
-        if kind == "dense" and sparse_footprint(self.layout):
+        if sparse:
             # a footprint that is a small part of its grid: its entries read from the table node
             # by node (the windows of the assembly below read the whole grid for each node)
             self.mat = self._explicit_block(np.ones(self.layout.local_size, bool), self.layout.size)
@@ -215,11 +222,9 @@ class Flexibility:
             if self._single_rows is None:
                 self._single_rows = rows.astype(np.float32)
             rows = self._single_rows
-        local = np.ascontiguousarray(values, dtype=rows.dtype)
-        whole = np.empty(self.layout.size, dtype=rows.dtype)
-        if self.comm.Get_size() == 1:
-            whole[:] = local
-        else:
+        whole = np.ascontiguousarray(values, dtype=rows.dtype)       # one rank: its x is all of x
+        if self.comm.Get_size() > 1:
+            local, whole = whole, np.empty(self.layout.size, dtype=rows.dtype)
             self.comm.Allgatherv(local, [whole, self._counts])
         # the rank's transform threads (one per rank where the ranks share the node's cores)
         with blas_threads(self.workers):
@@ -317,7 +322,7 @@ class Flexibility:
         """Whether an explicit H_SS of ``count`` nodes, ``largest`` of them on one rank, is cheaper
         than FFT products and fits (:data:`~.memory.EXPLICIT_RATIO`, :data:`~.memory.EXPLICIT_BYTES`:
         the rank with the most of S holds its rows of the block)."""
-        return count * count <= EXPLICIT_RATIO * self.layout.size and 8.0 * count * largest <= EXPLICIT_BYTES
+        return explicit_within(count, largest, self.layout.size, 8)
 
     def block(self, active: np.ndarray, explicit: bool | None = None, single: bool = False) -> PETSc.Mat:
         """H_SS for the contact set S (``active``: mask over this rank's nodes), a new Mat.

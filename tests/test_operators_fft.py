@@ -176,6 +176,23 @@ def test_slab_positions_are_each_nodes_row_and_column_on_the_slab(comm, footprin
     fft.destroy()
 
 
+@pytest.mark.parametrize("footprint", ["square", "disc"])
+def test_index_sums_and_parities_are_those_of_each_nodes_indices(comm, footprint):
+    """layout.index_sums() is (Σ i, Σ j) and layout.parities() is (i + j) mod 2 over this rank's
+    nodes (i, j) as local_nodes() lists them, exactly (integers), on whole and partial rows of a
+    37 × 37 grid (odd: the checkerboard's colours differ in count); summed over ranks, Σ i is the
+    same on any number of ranks."""
+    fft = Flexibility(topography(37, footprint), ROCK, comm, kind="fft")
+    layout = fft.layout
+    grid = layout.local_nodes().astype(np.int64)
+    np.testing.assert_array_equal(layout.index_sums(), grid.sum(axis=0))
+    np.testing.assert_array_equal(layout.parities(), (grid.sum(axis=1) % 2).astype(bool))
+    mask = topography(37, footprint).footprint
+    everywhere = np.argwhere(mask).sum(axis=0)
+    np.testing.assert_array_equal(comm.allreduce(layout.index_sums()), everywhere)
+    fft.destroy()
+
+
 @pytest.mark.parametrize("kind", ["fft", "fft-periodic"])
 def test_the_restricted_product_is_the_whole_product_at_the_nodes(comm, kind):
     """restricted (R_S K R_Sᵀ, read off the product before its crop) equals the whole field's
@@ -375,8 +392,8 @@ def test_fourier_preconditioner_is_symmetric_positive_definite(comm, n):
 @pytest.mark.parametrize("period", [(45, 45), (44, 45), (48, 48), (57, 50)])
 def test_a_product_on_a_longer_period_is_the_folded_sum_written_out(comm, period):
     """A convolution keeps its symbol's rows kx = 0 … Lx // 2 and scales the others by their
-    mirror, the symbol of an even kernel being even in kx. On periods odd and even along x the
-    product equals the circular sum u_a = Σ_c k(fold(a − c)) x_c over the period, written out
+    mirror, the symbol of an even kernel being even in kx. On periods odd and even along x (both
+    even: the symbol from cosine transforms of the table) the product equals the circular sum u_a = Σ_c k(fold(a − c)) x_c over the period, written out
     term by term (fold(d) = min(d mod L, L − d mod L) per direction; a random table, so no
     symmetry of the kernel's values hides a wrong row): to 1e-12 of the largest value in double
     (the FFT's round-off is O(ε log L), about 1e-15) and 1e-6 in single (float32's ε = 6e-8 grown
@@ -397,6 +414,32 @@ def test_a_product_on_a_longer_period_is_the_folded_sum_written_out(comm, period
     for single, tolerance in ((False, 1e-12), (True, 1e-6)):
         product = convolution.apply(np.ascontiguousarray(field[r0:r1]), single)
         assert np.abs(product - direct[r0:r1]).max(initial=0.0) <= tolerance * scale, (single, period)
+
+
+@pytest.mark.parametrize("shape", [(24, 40), (37, 23), (24, 21), (23, 24)])
+def test_a_linear_product_is_the_sum_over_signed_offsets_written_out(comm, shape):
+    """The non-periodic product u_a = Σ_c k(|a − c|) x_c over the grid, written out term by term,
+    for a random even table (no symmetry of Eq. 10's values hides a wrong row). The shapes give
+    padded lengths (Lx, Ly) (48, 80), (75, 45), (48, 45) and (45, 48): both even, where the
+    symbol comes from type-I cosine transforms of the table, and odd in either direction or both,
+    where it comes from the extended table's transform. To 1e-12 of the largest value in double
+    (the FFT's round-off, O(ε log L), is about 1e-15) and 1e-6 in single (float32's ε)."""
+    from roughcontact.operators.convolution import SlabConvolution
+
+    convolution = SlabConvolution(shape, comm)
+    assert [length % 2 for length in convolution.lengths] == {
+        (24, 40): [0, 0], (37, 23): [1, 1], (24, 21): [0, 1], (23, 24): [1, 0]}[shape]
+    rng = np.random.default_rng(shape[0] * 100 + shape[1])
+    table = rng.random(shape)
+    field = rng.standard_normal(shape)                 # the same on every rank
+    convolution.set_kernel(table)
+    dx, dy = (np.abs(np.arange(n)[:, None] - np.arange(n)[None, :]) for n in shape)
+    direct = np.einsum("abcd,cd->ab", table[dx[:, None, :, None], dy[None, :, None, :]], field)
+    r0, r1 = convolution.rows
+    scale = np.abs(direct).max()
+    for single, tolerance in ((False, 1e-12), (True, 1e-6)):
+        product = convolution.apply(np.ascontiguousarray(field[r0:r1]), single)
+        assert np.abs(product - direct[r0:r1]).max(initial=0.0) <= tolerance * scale, (single, shape)
 
 
 def test_a_symbol_that_is_not_even_is_refused(comm):

@@ -718,7 +718,7 @@ class ConstrainedCGSolver(NormalSolver):
         """The colour of each of this rank's nodes on the grid's checkerboard, (i + j) mod 2 as a
         bool (the same for a node on any number of ranks), made on first use."""
         if self._colours is None:
-            self._colours = np.bitwise_and(self.problem.nodes.sum(axis=1), 1).astype(bool)
+            self._colours = self.problem.flexibility.layout.parities()
         return self._colours
 
     def _stiffness(self, active: np.ndarray):

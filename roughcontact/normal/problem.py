@@ -71,11 +71,9 @@ class NormalProblem(Collective):
         self.start, self.stop = layout.start, layout.stop
         self.counts = np.array(comm.allgather(layout.local_size))     # nodes of each rank
         s = topography.spacing
-        nodes = self.nodes
         # the centroid from integer sums: exact, so the same bits on any number of ranks
-        index_sums = np.array(comm.allreduce(nodes.sum(axis=0, dtype=np.int64)), dtype=float)
+        index_sums = np.array(comm.allreduce(layout.index_sums()), dtype=float)
         self.centroid = index_sums * s / self.size
-        del nodes
         # the coordinates by grid row (x) and by grid column (y): a node's are its row's and its
         # column's (Eq. 8), so no array of the nodes' size is held for them
         self._x_rows = np.arange(*layout.rows) * s - self.centroid[0]

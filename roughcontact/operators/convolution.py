@@ -193,7 +193,9 @@ class SlabConvolution:
         or only this rank's rows of it, (row_stop − row_start, ny) — all a rank transforms.
 
         Non-periodic: the table extended to negative offsets on the padded
-        grid, zero at offsets beyond ±(n − 1), transformed. Periodic: the
+        grid, zero at offsets beyond ±(n − 1), transformed (by cosine
+        transforms of the table where both lengths are even,
+        :meth:`_set_even_kernel`). Periodic: the
         table must already be the periodic kernel on one period, indexed by
         offset modulo n (use :meth:`set_symbol` for symbols computed in
         Fourier space, :meth:`set_folded_kernel` for a period longer than
@@ -205,6 +207,9 @@ class SlabConvolution:
             raise ValueError(f"a period {self.lengths} longer than the grid {self.shape} takes "
                              "set_folded_kernel")
         kernel = self._table_rows(kernel)
+        if not self.periodic and lx % 2 == 0 and ly % 2 == 0:
+            self._set_even_kernel(kernel)
+            return
         rows = np.zeros((kernel.shape[0], ly))
         rows[:, :ny] = kernel
         if not self.periodic:
@@ -216,6 +221,28 @@ class SlabConvolution:
             full[lx - nx + 1:] = columns[:0:-1]                     # negative x offsets
         self._set_transformed(full)
 
+    def _set_even_kernel(self, kernel: np.ndarray) -> None:
+        """The symbol of this rank's rows of the even table K[|Δi|, |Δj|], both lengths even,
+        non-periodic or folded onto its period: the kept rows kx = 0 … Lx / 2, by type-I cosine
+        transforms along y and then x.
+
+        With L = 2M the symbol of the kernel extended evenly onto the period is
+        λ(k) = K(0) + 2 Σ_{0<j<M} K(j) cos(2π j k / L) + (−1)^k K(M), the type-I cosine transform
+        of K(0 … M): of length M + 1 = L // 2 + 1, along y the rfft's column count and along x the
+        rows kept. Non-periodic, the table (offsets up to n − 1 < M) is padded with zeros to M;
+        folded (L ≤ 2n − 1, so M ≤ n − 1), it is read up to M. A quarter of the complex transform
+        of the extended table, real throughout, and even by construction (at 1024² 18 against
+        104 ms, docs/solver-cost.md, "The set-up: the kernel's symbol and the nodes' indices")."""
+        nx, ny = self.shape
+        width, height = min(ny, self.columns), min(nx, self._half_rows)
+        rows = np.zeros((kernel.shape[0], self.columns))
+        rows[:, :width] = kernel[:, :width]
+        rows = sfft.dct(rows, type=1, axis=1, workers=self.workers, overwrite_x=True)
+        half = np.zeros((self._half_rows, self.my_columns[1] - self.my_columns[0]))
+        half[:height] = self._to_columns(rows)[:height]
+        self._half = sfft.dct(half, type=1, axis=0, workers=self.workers, overwrite_x=True)
+        self._single_half = None
+
     def set_folded_kernel(self, kernel: np.ndarray) -> None:
         """Periodic: the symbol of the even kernel given by |offset| (kernel[|Δi|, |Δj|], the whole
         table or this rank's rows, as :meth:`set_kernel`) folded onto the period: offset d takes
@@ -225,6 +252,9 @@ class SlabConvolution:
             raise ValueError("a folded kernel needs a periodic convolution")
         lx, ly = self.lengths
         kernel = self._table_rows(kernel)
+        if lx % 2 == 0 and ly % 2 == 0:
+            self._set_even_kernel(kernel)
+            return
         columns = self._to_columns(sfft.rfft(kernel[:, _folded(ly)], axis=1, workers=self.workers))
         self._set_transformed(columns[_folded(lx)])
 

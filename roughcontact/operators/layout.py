@@ -115,6 +115,20 @@ class NodeLayout:
             return slab.reshape(-1)
         return slab[self.local_mask]
 
+    def index_sums(self) -> np.ndarray:
+        """(Σ i, Σ j) over this rank's nodes (int64, exact): from the mask's counts per row and per
+        column, not from the nodes' indices, whose array took 0.39 s to make at 2048²."""
+        mask = self.local_mask
+        return np.array([mask.sum(axis=1, dtype=np.int64) @ np.arange(*self.rows, dtype=np.int64),
+                         mask.sum(axis=0, dtype=np.int64) @ np.arange(self.shape[1], dtype=np.int64)])
+
+    def parities(self) -> np.ndarray:
+        """(i + j) mod 2 of each of this rank's nodes, as a bool (the colour of the node on the
+        grid's checkerboard, the same on any number of ranks), from the rows' and columns' indices."""
+        rows = np.arange(*self.rows, dtype=np.int32)[:, None]
+        board = np.bitwise_and(rows + np.arange(self.shape[1], dtype=np.int32)[None, :], 1).astype(bool)
+        return board.reshape(-1) if self.whole_rows else board[self.local_mask]
+
     def local_nodes(self) -> np.ndarray:
         """(i, j) grid indices of this rank's nodes, in the order of the unknowns (int32: a grid
         has fewer than 2³¹ rows and columns)."""

@@ -124,9 +124,10 @@ class NodeLayout:
 
     def parities(self) -> np.ndarray:
         """(i + j) mod 2 of each of this rank's nodes, as a bool (the colour of the node on the
-        grid's checkerboard, the same on any number of ranks), from the rows' and columns' indices."""
-        rows = np.arange(*self.rows, dtype=np.int32)[:, None]
-        board = np.bitwise_and(rows + np.arange(self.shape[1], dtype=np.int32)[None, :], 1).astype(bool)
+        grid's checkerboard, the same on any number of ranks): i + j is odd where the parities of
+        i and j differ, one byte per node of the slab and no wider temporary."""
+        rows = np.arange(*self.rows) % 2 == 1
+        board = np.not_equal(rows[:, None], np.arange(self.shape[1]) % 2 == 1)
         return board.reshape(-1) if self.whole_rows else board[self.local_mask]
 
     def local_nodes(self) -> np.ndarray:

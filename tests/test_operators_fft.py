@@ -389,13 +389,26 @@ def test_fourier_preconditioner_is_symmetric_positive_definite(comm, n):
     fft.destroy()
 
 
+def assert_product_is_the_sum(convolution, table, field, di, dj):
+    """convolution.apply(field) on this rank's rows equals u_a = Σ_c table[di(a, c), dj(a, c)] x_c
+    written out term by term (di, dj: the table's row and column for each pair of grid rows and of
+    grid columns), to 1e-12 of the largest value in double and 1e-6 in single."""
+    direct = np.einsum("abcd,cd->ab", table[di[:, None, :, None], dj[None, :, None, :]], field)
+    r0, r1 = convolution.rows
+    scale = np.abs(direct).max()
+    for single, tolerance in ((False, 1e-12), (True, 1e-6)):
+        product = convolution.apply(np.ascontiguousarray(field[r0:r1]), single)
+        assert np.abs(product - direct[r0:r1]).max(initial=0.0) <= tolerance * scale, single
+
+
 @pytest.mark.parametrize("period", [(45, 45), (44, 45), (48, 48), (57, 50)])
 def test_a_product_on_a_longer_period_is_the_folded_sum_written_out(comm, period):
     """A convolution keeps its symbol's rows kx = 0 … Lx // 2 and scales the others by their
     mirror, the symbol of an even kernel being even in kx. On periods odd and even along x (both
-    even: the symbol from cosine transforms of the table) the product equals the circular sum u_a = Σ_c k(fold(a − c)) x_c over the period, written out
-    term by term (fold(d) = min(d mod L, L − d mod L) per direction; a random table, so no
-    symmetry of the kernel's values hides a wrong row): to 1e-12 of the largest value in double
+    even: the symbol from cosine transforms of the table) the product equals the circular sum
+    u_a = Σ_c k(fold(a − c)) x_c over the period, written out term by term (fold(d) =
+    min(d mod L, L − d mod L) per direction; a random table, so no symmetry of the kernel's values
+    hides a wrong row): to 1e-12 of the largest value in double
     (the FFT's round-off is O(ε log L), about 1e-15) and 1e-6 in single (float32's ε = 6e-8 grown
     as O(ε log L), as above)."""
     from roughcontact.operators.convolution import SlabConvolution
@@ -408,12 +421,7 @@ def test_a_product_on_a_longer_period_is_the_folded_sum_written_out(comm, period
     convolution.set_folded_kernel(table)
     offsets = np.arange(n)[:, None] - np.arange(n)[None, :]
     fx, fy = (np.minimum(offsets % length, -offsets % length) for length in period)
-    direct = np.einsum("abcd,cd->ab", table[fx[:, None, :, None], fy[None, :, None, :]], field)
-    r0, r1 = convolution.rows
-    scale = np.abs(direct).max()
-    for single, tolerance in ((False, 1e-12), (True, 1e-6)):
-        product = convolution.apply(np.ascontiguousarray(field[r0:r1]), single)
-        assert np.abs(product - direct[r0:r1]).max(initial=0.0) <= tolerance * scale, (single, period)
+    assert_product_is_the_sum(convolution, table, field, fx, fy)
 
 
 @pytest.mark.parametrize("shape", [(24, 40), (37, 23), (24, 21), (23, 24)])
@@ -434,12 +442,7 @@ def test_a_linear_product_is_the_sum_over_signed_offsets_written_out(comm, shape
     field = rng.standard_normal(shape)                 # the same on every rank
     convolution.set_kernel(table)
     dx, dy = (np.abs(np.arange(n)[:, None] - np.arange(n)[None, :]) for n in shape)
-    direct = np.einsum("abcd,cd->ab", table[dx[:, None, :, None], dy[None, :, None, :]], field)
-    r0, r1 = convolution.rows
-    scale = np.abs(direct).max()
-    for single, tolerance in ((False, 1e-12), (True, 1e-6)):
-        product = convolution.apply(np.ascontiguousarray(field[r0:r1]), single)
-        assert np.abs(product - direct[r0:r1]).max(initial=0.0) <= tolerance * scale, (single, shape)
+    assert_product_is_the_sum(convolution, table, field, dx, dy)
 
 
 def test_a_symbol_that_is_not_even_is_refused(comm):

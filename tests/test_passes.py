@@ -159,3 +159,67 @@ def test_scale_summed_takes_no_broadcast_factor():
     """A factor of one row would be sliced by the target's rows: refused, not broadcast wrongly."""
     with pytest.raises(ValueError, match="factor of the target's rows"):
         passes.scale_summed(np.ones((40, 8), np.float32), np.ones((1, 8), np.float32), 2)
+
+
+@pytest.mark.parametrize("workers", [1, 2, 3])
+@pytest.mark.parametrize("share", [0.0, 0.01, 0.86, 1.0])
+def test_node_passes_equal_numpy(shared_always, workers, share):
+    """The constrained CG's passes over a rank's nodes (roughcontact/normal/constrained_cg.py):
+    the indices of a mask, gathers and scatters at them, and elementwise ufuncs, against numpy's
+    own calls bit for bit, on masks from empty to full and a length that no share count divides."""
+    rng = np.random.default_rng(int(share * 100) + workers)
+    size = 1009
+    mask = rng.random(size) < share
+    nodes = passes.nonzero(mask, workers)
+    assert nodes.dtype == np.intp
+    assert np.array_equal(nodes, np.flatnonzero(mask))
+    for dtype in (np.float64, np.float32):
+        values = rng.standard_normal(size).astype(dtype)
+        assert np.array_equal(passes.gather(values, nodes, workers), values[nodes])
+        out = np.full(nodes.size, np.nan, dtype=dtype)
+        assert passes.gather(values, nodes, workers, out=out) is out
+        assert np.array_equal(out, values[nodes])
+        written, expected = values.copy(), values.copy()
+        new = rng.standard_normal(nodes.size).astype(dtype)
+        passes.scatter(written, nodes, new, workers)
+        expected[nodes] = new
+        assert np.array_equal(written, expected)
+        passes.scatter(written, nodes, 0.0, workers)
+        expected[nodes] = 0.0
+        assert np.array_equal(written, expected)
+    first, second = rng.standard_normal(size), rng.standard_normal(size)
+    for ufunc, dtype in ((np.add, float), (np.subtract, float), (np.multiply, float), (np.less, bool)):
+        out = np.empty(size, dtype=dtype)
+        assert np.array_equal(passes.combine(ufunc, first, second, out, workers), ufunc(first, second))
+        assert np.array_equal(passes.combine(ufunc, first, 0.25, out, workers), ufunc(first, 0.25))
+    flags = rng.random(size) < 0.5
+    in_place = flags.copy()
+    passes.combine(np.greater, in_place, mask, in_place, workers)          # the output an input
+    assert np.array_equal(in_place, flags > mask)
+
+
+@pytest.mark.parametrize("scene", ["sparse", "full"])
+def test_a_constrained_cg_solve_does_not_depend_on_the_threads(comm, shared_always, scene):
+    """A whole nested CG solve (its loop's passes over the nodes and its products, every one split
+    between threads) gives the same forces, bit for bit, and the same iterations with one thread
+    and with two: elementwise passes and gathers split by nodes change no operation's order."""
+    from roughcontact.materials import Interface, Material
+    from roughcontact.normal import NormalProblem, make_solver
+    from roughcontact.surfaces import Topography, fourier_surface
+
+    n = 160
+    shape = {"fractal_dimension": 2.5} if scene == "full" else {"hurst": 0.8}
+    heights = fourier_surface(n, 1.0 / n, rms_slope=1.0, rolloff_wavelength=1.0,
+                              short_cutoff_wavelength=8.0 / n, periodic=False, seed=3, **shape).heights
+    pressure = 1.0 if scene == "full" else 0.01
+    results = []
+    for workers in (1, 2):
+        problem = NormalProblem(Topography(np.asarray(heights), 1.0 / n), Interface(Material(1.0, 0.0)), comm,
+                                operator="fft", workers=workers)
+        with make_solver(problem, "cg") as solver:
+            result = solver.solve_load(pressure, rotation=(0.0, 0.0))
+        results.append(result)
+    assert results[0].linear_iterations == results[1].linear_iterations
+    assert results[0].coarse_iterations == results[1].coarse_iterations
+    assert np.array_equal(results[0].pressure, results[1].pressure)
+    assert 0.05 < results[0].contact_fraction < 0.99 if scene == "full" else results[0].contact_fraction < 0.2

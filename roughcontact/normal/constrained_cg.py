@@ -74,6 +74,7 @@ import numpy as np
 from scipy.linalg.blas import daxpy
 
 from ..errors import ConvergenceError, InputError
+from ..operators import passes
 from ..operators.convolution import dense
 from ..operators.holes import HOLE_BLOCK, HoleCharge
 from ..operators.preconditioner import EDGE_SHARE, EDGE_UPDATES, EdgeWeights
@@ -475,21 +476,23 @@ class ConstrainedCGSolver(NormalSolver):
         # H of a nodal vector that is zero off some nodes: only those nodes go into the transform
         # (``scattered``), or the whole vector (``whole``, a dense set); ``single`` as it stands
         scattered = lambda values, nodes: pb.displacement_at(values[nodes], nodes, single)  # noqa: E731
+        workers = pb.flexibility.workers               # the threads of the passes over the nodes (passes)
         whole = lambda values, nodes: pb.displacement(values, single)                       # noqa: E731
         for iteration in range(1, settings.max_iterations + 1):
             restarts.clear()
             # the set now, into the scratch mask: in_contact still holds the last step's set, and
             # the nodes in it but not in this one left (``alternate_return``); then the two swap
-            np.greater(forces, 0.0, out=changed)
+            passes.combine(np.greater, forces, 0.0, changed, workers)
             if left is not None:
-                left |= np.greater(in_contact, changed, out=in_contact)
+                passes.combine(np.logical_or, left, passes.combine(np.greater, in_contact, changed, in_contact,
+                                                                   workers), left, workers)
             in_contact, changed = changed, in_contact
-            contact = np.flatnonzero(in_contact)
+            contact = passes.nonzero(in_contact, workers)
             if w is None:
-                np.add(displacement, pb.gap0, out=lifted)
+                passes.combine(np.add, displacement, pb.gap0, lifted, workers)
             else:
-                np.subtract(displacement, w, out=lifted)
-            on_contact = lifted[contact]
+                passes.combine(np.subtract, displacement, w, lifted, workers)
+            on_contact = passes.gather(lifted, contact, workers)
             approach = _mean(pb, on_contact) if load is not None else 0.0
             on_contact -= approach                     # the deformed gap on S, zero at the solution
             # max(|g| on S, max(−g) off S): −g ≤ |g| on S, so the minimum may run over all nodes
@@ -540,10 +543,13 @@ class ConstrainedCGSolver(NormalSolver):
                 continue
             # masks, not sorted-set operations: union1d's sort cost more than the FFT products at 512²
             last, last_mask, free_mask = _cleared(working, forces.size), free_mask, last_mask
-            np.logical_or(in_contact, np.less(lifted, approach, out=free_mask), out=free_mask)
-            held = 0 if left is None else _hold_back(free_mask, in_contact, left, squares, iteration, changed)
-            working = np.flatnonzero(free_mask)
-            counts = pb.allsum(np.array([np.count_nonzero(np.not_equal(free_mask, last_mask, out=changed)),
+            passes.combine(np.logical_or, in_contact, passes.combine(np.less, lifted, approach, free_mask, workers),
+                           free_mask, workers)
+            held = 0 if left is None else _hold_back(free_mask, in_contact, left, squares, iteration, changed,
+                                                     workers)
+            working = passes.nonzero(free_mask, workers)
+            counts = pb.allsum(np.array([np.count_nonzero(passes.combine(np.not_equal, free_mask, last_mask,
+                                                                         changed, workers)),
                                          working.size, held]))
             since_restart += 1
             if previous is None and not restarts:
@@ -567,7 +573,7 @@ class ConstrainedCGSolver(NormalSolver):
                 # moved, they let the residual wander between 1e-4 and 7e-4 for 30 iterations at
                 # 4096² (61 fine iterations against 42)
                 edge, stale = self._edge_weights(edges, working, free_mask, single, correcting, charge), False
-            g = lifted[working]
+            g = passes.gather(lifted, working, workers)
             g -= approach
             if pending is not None:                    # what the deferred far fields may reach
                 square, size = pb.allsum(np.array([g @ g, g.size]))
@@ -580,20 +586,22 @@ class ConstrainedCGSolver(NormalSolver):
                 z, gz = self._direction(g, working, single, None, load is not None, None)
                 previous = None
                 restarts.append("plain")
-            if previous is not None and abs(float(pb.allsum(g @ np.take(last_z, working)))) >= settings.restart * gz:
+            if previous is not None and \
+                    abs(float(pb.allsum(g @ passes.gather(last_z, working, workers)))) >= settings.restart * gz:
                 previous = None                        # Powell's test (``CGSettings.restart``)
                 restarts.append("powell")
-            _clear(last_z, last)
-            last_z[working] = z.astype(np.float32)     # converted first: a converting scatter took twice as long
+            _clear(last_z, last, workers)
+            passes.scatter(last_z, working, z.astype(np.float32), workers)   # converted first: a converting
+            # scatter took twice as long
             if previous is None or gz <= 0.0:
                 step_direction = z
             else:
-                step_direction = z + (gz / previous) * direction[working]
+                step_direction = z + (gz / previous) * passes.gather(direction, working, workers)
                 if load is not None:
                     step_direction -= _mean(pb, step_direction)
             previous = gz
-            _clear(direction, last)
-            direction[working] = step_direction
+            _clear(direction, last, workers)
+            passes.scatter(direction, working, step_direction, workers)
             del g, z
             # H d, held between its transforms with dᵀHd read off its spectrum (Parseval), after
             # an iteration whose cut could not wait and on the first step from a coarse grid's
@@ -619,7 +627,7 @@ class ConstrainedCGSolver(NormalSolver):
             else:
                 held_product, product = None, (pb.displacement(direction, single) if crowded
                                                else pb.displacement_at(step_direction, working, single))
-                curvature = float(pb.allsum(step_direction @ product[working]))
+                curvature = float(pb.allsum(step_direction @ passes.gather(product, working, workers)))
             if not curvature > 0.0:
                 raise ConvergenceError(
                     "CG_INDEFINITE", f"iteration {iteration}: dᵀHd = {curvature:.3e} <= 0 on a set of "
@@ -634,7 +642,7 @@ class ConstrainedCGSolver(NormalSolver):
                                               "free": int(counts[1]), "held": int(counts[2]), "alpha": float(step),
                                               "restart": list(restarts)}})
             step_direction *= step                     # α d in place (``direction`` keeps d): no temporary
-            trial = forces[working]
+            trial = passes.gather(forces, working, workers)
             trial -= step_direction
             del step_direction
             leaving = trial < 0.0
@@ -648,7 +656,7 @@ class ConstrainedCGSolver(NormalSolver):
             scale = _load_scale(pb, trial, load) if load is not None else 1.0
             if scale != 1.0:
                 trial *= scale
-            forces[working] = trial
+            passes.scatter(forces, working, trial, workers)
             del trial, leaving
             since_refresh += 1
             at_floor = at_floor or floor
@@ -695,7 +703,7 @@ class ConstrainedCGSolver(NormalSolver):
                 # (the ledger is empty after a cut that could not wait; it is settled in case not)
                 settling = pending is not None and pending.count
                 displacement += pending.settle(clipped, working, join) if settling else join(clipped, working)
-                _clear(clipped, None if crowded else working)
+                _clear(clipped, None if crowded else working, workers)
             else:
                 if held_product is not None:
                     product = held_product.result()
@@ -706,7 +714,7 @@ class ConstrainedCGSolver(NormalSolver):
                         pending.settle(clipped, cut_nodes if cut else working[:0], scattered)
                 if cut:
                     clipped[cut_nodes] = 0.0
-            displacement *= scale                      # H is linear: a uniform rescaling is exact
+            passes.combine(np.multiply, displacement, scale, displacement, workers)   # H is linear: exact
             if pending is not None:
                 pending.rescale(scale)
         raise ConvergenceError(
@@ -851,16 +859,17 @@ class ConstrainedCGSolver(NormalSolver):
 
 
 def _hold_back(free: np.ndarray, contact: np.ndarray, left: np.ndarray, squares: np.ndarray, iteration: int,
-               scratch: np.ndarray) -> int:
+               scratch: np.ndarray, workers: int = 1) -> int:
     """Takes out of the free set (a mask, in place) the nodes out of the contact set that left it
     earlier in the solve and whose checkerboard square (``squares``, (i + j) mod 2) is not the
     iteration's parity (``CGSettings.alternate_return``); returns how many it took out of this
-    rank's nodes. ``scratch``: a bool array of the nodes' size, overwritten."""
-    np.not_equal(squares, bool(iteration & 1), out=scratch)      # the other colour this iteration
-    scratch &= left
-    np.greater(scratch, contact, out=scratch)                    # ... and out of the set now
-    scratch &= free
-    np.greater(free, scratch, out=free)
+    rank's nodes. ``scratch``: a bool array of the nodes' size, overwritten; each pass on
+    ``workers`` threads (:mod:`~roughcontact.operators.passes`)."""
+    passes.combine(np.not_equal, squares, bool(iteration & 1), scratch, workers)   # the other colour
+    passes.combine(np.logical_and, scratch, left, scratch, workers)
+    passes.combine(np.greater, scratch, contact, scratch, workers)                 # ... and out of the set now
+    passes.combine(np.logical_and, scratch, free, scratch, workers)
+    passes.combine(np.greater, free, scratch, free, workers)
     return int(np.count_nonzero(scratch))
 
 
@@ -874,12 +883,13 @@ def _cleared(nodes: np.ndarray, size: int) -> np.ndarray | None:
     return None if dense(nodes.size, size) else nodes
 
 
-def _clear(field: np.ndarray, nodes: np.ndarray | None) -> None:
-    """field[nodes] = 0; the whole field where ``nodes`` is None (:func:`_cleared`)."""
+def _clear(field: np.ndarray, nodes: np.ndarray | None, workers: int = 1) -> None:
+    """field[nodes] = 0; the whole field where ``nodes`` is None (:func:`_cleared`); on ``workers``
+    threads."""
     if nodes is None:
-        field.fill(0.0)
+        passes.fill(field, 0.0, workers)
     else:
-        field[nodes] = 0.0
+        passes.scatter(field, nodes, 0.0, workers)
 
 
 def _add_scaled(target: np.ndarray, factor: float, values: np.ndarray) -> np.ndarray:

@@ -6,7 +6,11 @@ the padded buffers, the copies into and out of them. These are large
 memory-bound loops (the padded spectrum of a 4096² grid in single precision
 is 268 MB), and numpy releases the GIL inside each, so the same threads can
 share them by contiguous blocks of rows (docs/solver-cost.md, "The passes
-between the transforms", gives what it saves).
+between the transforms", gives what it saves). The constrained CG's passes
+over a rank's nodes (the gap, the sets' masks and indices, the gathers and
+scatters of the free set: :func:`combine`, :func:`nonzero`, :func:`gather`,
+:func:`scatter`) are shared the same way ("The CG's passes over the nodes on
+the same threads").
 
 The pool is made on first use and kept for the process; with one worker, or
 an array of fewer than :data:`SHARED_VALUES` values, the work runs in the
@@ -123,3 +127,63 @@ def scale_summed(target: np.ndarray, factor: np.ndarray, workers: int) -> float:
 
     by_rows(_threads(target, workers), sums.size, work)
     return float(sums.sum())
+
+
+def combine(ufunc, first: np.ndarray, second, out: np.ndarray, workers: int) -> np.ndarray:
+    """out = ufunc(first, second) for a binary elementwise ufunc (``second`` an array of the same
+    shape or a scalar), by blocks of the leading axis: each value is the same bits as numpy's
+    whole-array call. Returns ``out``."""
+    if np.ndim(second) and not _same_rows(out, second):
+        return ufunc(first, second, out=out)
+    if np.ndim(second):
+        by_rows(_threads(out, workers), out.shape[0], lambda a, b: ufunc(first[a:b], second[a:b], out=out[a:b]))
+    else:
+        by_rows(_threads(out, workers), out.shape[0], lambda a, b: ufunc(first[a:b], second, out=out[a:b]))
+    return out
+
+
+def gather(source: np.ndarray, nodes: np.ndarray, workers: int, out: np.ndarray | None = None) -> np.ndarray:
+    """source[nodes] (a 1-D ``source``; ``nodes`` valid indices, as made by ``numpy.flatnonzero``),
+    into ``out`` (a new array by default), by blocks of ``nodes``. numpy's ``take`` into an
+    ``out`` buffers the whole result where it checks the indices (mode "raise"), which took twice
+    the time of the gather itself; "clip" writes straight through, and on valid indices is the
+    same gather."""
+    if out is None:
+        out = np.empty(nodes.shape, dtype=source.dtype)
+    by_rows(_threads(nodes, workers), nodes.size,
+            lambda a, b: np.take(source, nodes[a:b], out=out[a:b], mode="clip"))
+    return out
+
+
+def scatter(target: np.ndarray, nodes: np.ndarray, values, workers: int) -> None:
+    """target[nodes] = values (a 1-D ``target``, ``nodes`` distinct, ``values`` of their length
+    or a scalar), by blocks of ``nodes``: distinct nodes make the blocks' writes disjoint."""
+    if np.ndim(values):
+        by_rows(_threads(nodes, workers), nodes.size, lambda a, b: target.__setitem__(nodes[a:b], values[a:b]))
+    else:
+        by_rows(_threads(nodes, workers), nodes.size, lambda a, b: target.__setitem__(nodes[a:b], values))
+
+
+def nonzero(mask: np.ndarray, workers: int) -> np.ndarray:
+    """numpy.flatnonzero(mask) of a 1-D mask, by blocks: each block's indices are found in its own
+    thread, then written at their offsets into the one result (ascending, as numpy's)."""
+    shares = _threads(mask, workers)
+    if shares <= 1:
+        return np.flatnonzero(mask)
+    bounds = np.linspace(0, mask.size, shares + 1).astype(np.intp)
+    parts: list[np.ndarray | None] = [None] * shares
+
+    def find(first: int, last: int) -> None:
+        for share in range(first, last):
+            parts[share] = np.flatnonzero(mask[bounds[share]:bounds[share + 1]])
+
+    by_rows(shares, shares, find)
+    offsets = np.concatenate(([0], np.cumsum([part.size for part in parts])))
+    out = np.empty(int(offsets[-1]), dtype=np.intp)
+
+    def place(first: int, last: int) -> None:
+        for share in range(first, last):
+            np.add(parts[share], bounds[share], out=out[offsets[share]:offsets[share + 1]])
+
+    by_rows(shares, shares, place)
+    return out

@@ -425,7 +425,11 @@ class SlabConvolution:
         over it (:func:`.passes.scale_summed`), else None."""
         if single:
             if self._single_half is None:
-                self._single_half = np.repeat(self._half.astype(np.float32), 2, axis=1)
+                # each value written twice, as numpy's repeat of the float32 symbol, by two strided
+                # copies on the workers (repeat took 0.43 s of a 4096² solve's 37.9 s)
+                self._single_half = np.empty((self._half.shape[0], 2 * self._half.shape[1]), dtype=np.float32)
+                for part in (0, 1):
+                    passes.copy(self._single_half[:, part::2], self._half, self.workers)
             # the transforms' spectra are contiguous along their columns, which the view needs
             symbol, scaled = self._single_half, spectrum.view(np.float32)
         else:

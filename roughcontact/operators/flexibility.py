@@ -262,7 +262,7 @@ class Flexibility:
         of N entries on every rank."""
         r0, r1 = self.layout.rows
         self.convolution.set_kernel(punch_kernel(self.shape, self.spacing, self.compliance,
-                                                 rows=np.arange(r0, r1)))
+                                                 rows=np.arange(r0, r1), workers=self.convolution.workers))
         self._kernel_set = True
 
     def _nodal(self, result: np.ndarray) -> np.ndarray:

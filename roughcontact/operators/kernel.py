@@ -23,13 +23,22 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import passes
+
 
 def punch_kernel(shape: tuple[int, int], spacing: float, compliance: float,
-                 rows: np.ndarray | None = None) -> np.ndarray:
+                 rows: np.ndarray | None = None, workers: int = 1) -> np.ndarray:
     """Table K[|Δi|, |Δj|] of Eq. 10 for all offsets of a grid of ``shape``; ``rows``: only the
-    rows |Δi| listed (a distributed operator computes the rows of its own slab, not the table)."""
+    rows |Δi| listed (a distributed operator computes the rows of its own slab, not the table);
+    ``workers``: threads sharing the rows (each entry the same bits; numpy's ``hypot`` and
+    ``arcsin`` release the GIL: a 4096² operator's and preconditioner's tables took 0.63 s of a
+    37.9 s solve on one thread)."""
     di = (np.arange(shape[0]) if rows is None else np.asarray(rows))[:, None]
-    return punch_entries(di, np.arange(shape[1])[None, :], spacing, compliance)
+    dj = np.arange(shape[1])[None, :]
+    table = np.empty((di.shape[0], shape[1]))
+    passes.by_rows(workers if table.size >= passes.SHARED_VALUES else 1, di.shape[0],
+                   lambda a, b: punch_entries(di[a:b], dj, spacing, compliance, out=table[a:b]))
+    return table
 
 
 def punch_entries(di: np.ndarray, dj: np.ndarray, spacing: float, compliance: float,

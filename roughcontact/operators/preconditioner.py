@@ -122,7 +122,7 @@ class FourierPreconditioner:
         # |offset|, folded onto the period (nearest image)
         r0, r1 = self.convolution.rows
         self.convolution.set_folded_kernel(punch_kernel(shape, flexibility.spacing, flexibility.compliance,
-                                                        rows=np.arange(r0, r1)))
+                                                        rows=np.arange(r0, r1), workers=self.convolution.workers))
         smallest = flexibility.comm.allreduce(float(self.convolution.symbol.min()), op=_min())
         if not smallest > 0.0:
             raise ConvergenceError("PC_SYMBOL_NOT_POSITIVE",

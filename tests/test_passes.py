@@ -192,6 +192,7 @@ def test_node_passes_equal_numpy(shared_always, workers, share):
         out = np.empty(size, dtype=dtype)
         assert np.array_equal(passes.combine(ufunc, first, second, out, workers), ufunc(first, second))
         assert np.array_equal(passes.combine(ufunc, first, 0.25, out, workers), ufunc(first, 0.25))
+        assert np.array_equal(passes.combine(ufunc, first[:1], second, out, workers), ufunc(first[:1], second))
     flags = rng.random(size) < 0.5
     in_place = flags.copy()
     passes.combine(np.greater, in_place, mask, in_place, workers)          # the output an input

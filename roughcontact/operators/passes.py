@@ -132,8 +132,8 @@ def scale_summed(target: np.ndarray, factor: np.ndarray, workers: int) -> float:
 def combine(ufunc, first: np.ndarray, second, out: np.ndarray, workers: int) -> np.ndarray:
     """out = ufunc(first, second) for a binary elementwise ufunc (``second`` an array of the same
     shape or a scalar), by blocks of the leading axis: each value is the same bits as numpy's
-    whole-array call. Returns ``out``."""
-    if np.ndim(second) and not _same_rows(out, second):
+    whole-array call. Operands that broadcast are left to numpy whole. Returns ``out``."""
+    if not _same_rows(out, first) or (np.ndim(second) and not _same_rows(out, second)):
         return ufunc(first, second, out=out)
     if np.ndim(second):
         by_rows(_threads(out, workers), out.shape[0], lambda a, b: ufunc(first[a:b], second[a:b], out=out[a:b]))

@@ -476,8 +476,8 @@ class ConstrainedCGSolver(NormalSolver):
         # H of a nodal vector that is zero off some nodes: only those nodes go into the transform
         # (``scattered``), or the whole vector (``whole``, a dense set); ``single`` as it stands
         scattered = lambda values, nodes: pb.displacement_at(values[nodes], nodes, single)  # noqa: E731
-        workers = pb.flexibility.workers               # the threads of the passes over the nodes (passes)
         whole = lambda values, nodes: pb.displacement(values, single)                       # noqa: E731
+        workers = pb.flexibility.workers               # the threads of the passes over the nodes (passes)
         for iteration in range(1, settings.max_iterations + 1):
             restarts.clear()
             # the set now, into the scratch mask: in_contact still holds the last step's set, and

@@ -364,11 +364,11 @@ class SlabConvolution:
         whole = self._filtered(self._transform_at(values, positions, single), single, crop=False)
         index = self._written[single]
         if index is not None:
-            return whole.reshape(-1)[index]
+            return passes.gather(whole.reshape(-1), index, self.workers)
         # written dense (the write made sure the buffer holds the slab); the product is a new array
         flat = _flat_slab(*self._padded(single), whole.shape[0] * self.shape[1])
         passes.copy(flat.reshape(whole.shape[0], -1), whole[:, :self.shape[1]], self.workers)
-        return flat[positions]
+        return passes.gather(flat, positions, self.workers)
 
     def _transform_at(self, values, positions: np.ndarray, single: bool) -> np.ndarray:
         """The transform of ``values`` at the slab ``positions`` and zeros elsewhere, written as
@@ -388,7 +388,7 @@ class SlabConvolution:
         flat = _flat_slab(rows, columns, count * ny) if dense(positions.size, count * ny) else None
         if flat is not None:
             passes.fill(flat.reshape(count, ny), 0.0, self.workers)
-            flat[positions] = values
+            passes.scatter(flat, positions, values, self.workers)
             passes.copy(block, flat.reshape(count, ny), self.workers)
             self._written[single] = None                    # the whole block: zeroed whole next
             return block.any(axis=1)
@@ -396,14 +396,14 @@ class SlabConvolution:
         if last is None or dense(last.size, count * ny):
             passes.fill(block, 0.0, self.workers)
         else:
-            rows.reshape(-1)[last] = 0.0
+            passes.scatter(rows.reshape(-1), last, 0.0, self.workers)
         row = positions // ny
         if ly == ny:
             index = positions.copy()                     # kept to clear them: not the caller's array
         else:
             index = row * (ly - ny)
             index += positions
-        rows.reshape(-1)[index] = values
+        passes.scatter(rows.reshape(-1), index, values, self.workers)
         self._written[single] = index
         occupied = np.zeros(count, dtype=bool)
         occupied[row] = True

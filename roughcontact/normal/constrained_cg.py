@@ -484,8 +484,8 @@ class ConstrainedCGSolver(NormalSolver):
             # the nodes in it but not in this one left (``alternate_return``); then the two swap
             passes.combine(np.greater, forces, 0.0, changed, workers)
             if left is not None:
-                passes.combine(np.logical_or, left, passes.combine(np.greater, in_contact, changed, in_contact,
-                                                                   workers), left, workers)
+                passes.combine(np.greater, in_contact, changed, in_contact, workers)   # the nodes that left
+                passes.combine(np.logical_or, left, in_contact, left, workers)
             in_contact, changed = changed, in_contact
             contact = passes.nonzero(in_contact, workers)
             if w is None:
@@ -543,8 +543,8 @@ class ConstrainedCGSolver(NormalSolver):
                 continue
             # masks, not sorted-set operations: union1d's sort cost more than the FFT products at 512²
             last, last_mask, free_mask = _cleared(working, forces.size), free_mask, last_mask
-            passes.combine(np.logical_or, in_contact, passes.combine(np.less, lifted, approach, free_mask, workers),
-                           free_mask, workers)
+            passes.combine(np.less, lifted, approach, free_mask, workers)              # interpenetrating
+            passes.combine(np.logical_or, in_contact, free_mask, free_mask, workers)
             held = 0 if left is None else _hold_back(free_mask, in_contact, left, squares, iteration, changed,
                                                      workers)
             working = passes.nonzero(free_mask, workers)
@@ -714,7 +714,7 @@ class ConstrainedCGSolver(NormalSolver):
                         pending.settle(clipped, cut_nodes if cut else working[:0], scattered)
                 if cut:
                     clipped[cut_nodes] = 0.0
-            passes.combine(np.multiply, displacement, scale, displacement, workers)   # H is linear: exact
+            passes.scale(displacement, scale, workers)   # H is linear: a uniform rescaling is exact
             if pending is not None:
                 pending.rescale(scale)
         raise ConvergenceError(

@@ -50,7 +50,7 @@ def punch_kernel(shape: tuple[int, int], spacing: float, compliance: float,
             a, b = chunk * step, min(chunk * step + step, di.shape[0])
             punch_entries(di[a:b], dj, spacing, compliance, out=table[a:b])
 
-    passes.by_rows(workers if table.size >= passes.SHARED_VALUES else 1, chunks, work)
+    passes.by_rows(passes.shares(table, workers), chunks, work)
     return table
 
 

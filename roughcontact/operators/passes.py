@@ -47,12 +47,12 @@ def by_rows(workers: int, count: int, work) -> None:
     """``work(start, stop)`` over ``workers`` contiguous shares of ``range(count)`` (fewer where
     there are fewer rows), one of them in the calling thread. Returns, or raises the first
     error (the calling thread's first), only when every share has ended."""
-    shares = min(workers, count)
-    if shares <= 1:
+    threads = min(workers, count)
+    if threads <= 1:
         work(0, count)
         return
-    bounds = np.linspace(0, count, shares + 1).astype(int)
-    pool = _executor(shares - 1)
+    bounds = np.linspace(0, count, threads + 1).astype(int)
+    pool = _executor(threads - 1)
     futures = [pool.submit(work, int(a), int(b)) for a, b in zip(bounds[1:-1], bounds[2:])]
     try:
         work(int(bounds[0]), int(bounds[1]))
@@ -62,8 +62,9 @@ def by_rows(workers: int, count: int, work) -> None:
         future.result()
 
 
-def _threads(target: np.ndarray, workers: int) -> int:
-    """The threads a pass over ``target`` takes: one below SHARED_VALUES values."""
+def shares(target: np.ndarray, workers: int) -> int:
+    """The threads a pass over ``target`` takes: one below SHARED_VALUES values (also for work
+    elsewhere that is split by :func:`by_rows` by the size of what it writes)."""
     return workers if target.size >= SHARED_VALUES else 1
 
 
@@ -75,7 +76,7 @@ def _same_rows(target: np.ndarray, other: np.ndarray) -> bool:
 
 def fill(target: np.ndarray, value: float, workers: int) -> None:
     """target[...] = value, by blocks of its leading axis."""
-    by_rows(_threads(target, workers), target.shape[0], lambda a, b: target[a:b].fill(value))
+    by_rows(shares(target, workers), target.shape[0], lambda a, b: target[a:b].fill(value))
 
 
 def copy(target: np.ndarray, source: np.ndarray, workers: int) -> None:
@@ -84,17 +85,14 @@ def copy(target: np.ndarray, source: np.ndarray, workers: int) -> None:
     if not _same_rows(target, source):
         np.copyto(target, source, casting="unsafe")
         return
-    by_rows(_threads(target, workers), target.shape[0],
+    by_rows(shares(target, workers), target.shape[0],
             lambda a, b: np.copyto(target[a:b], source[a:b], casting="unsafe"))
 
 
-def scale(target: np.ndarray, factor: np.ndarray, workers: int) -> None:
-    """target *= factor, in place (``factor`` not overlapping ``target``)."""
-    if not _same_rows(target, factor):
-        target *= factor
-        return
-    by_rows(_threads(target, workers), target.shape[0],
-            lambda a, b: np.multiply(target[a:b], factor[a:b], out=target[a:b]))
+def scale(target: np.ndarray, factor, workers: int) -> None:
+    """target *= factor, in place (``factor`` an array not overlapping ``target``, or a scalar):
+    :func:`combine` with ``numpy.multiply``."""
+    combine(np.multiply, target, factor, target, workers)
 
 
 #: rows of the blocks of :func:`scale_summed`: each block is summed while it is in cache
@@ -125,7 +123,7 @@ def scale_summed(target: np.ndarray, factor: np.ndarray, workers: int) -> float:
             sums[index] = np.dot(real[first:last].reshape(-1), scaled.view(real.dtype).reshape(-1))
             target[first:last] = scaled
 
-    by_rows(_threads(target, workers), sums.size, work)
+    by_rows(shares(target, workers), sums.size, work)
     return float(sums.sum())
 
 
@@ -135,11 +133,14 @@ def combine(ufunc, first: np.ndarray, second, out: np.ndarray, workers: int) -> 
     whole-array call. Operands that broadcast are left to numpy whole. Returns ``out``."""
     if not _same_rows(out, first) or (np.ndim(second) and not _same_rows(out, second)):
         return ufunc(first, second, out=out)
-    if np.ndim(second):
-        by_rows(_threads(out, workers), out.shape[0], lambda a, b: ufunc(first[a:b], second[a:b], out=out[a:b]))
-    else:
-        by_rows(_threads(out, workers), out.shape[0], lambda a, b: ufunc(first[a:b], second, out=out[a:b]))
+    part = _rows_of(second)
+    by_rows(shares(out, workers), out.shape[0], lambda a, b: ufunc(first[a:b], part(a, b), out=out[a:b]))
     return out
+
+
+def _rows_of(operand):
+    """``(a, b) -> operand[a:b]`` for an array, ``-> operand`` for a scalar."""
+    return (lambda a, b: operand[a:b]) if np.ndim(operand) else (lambda a, b: operand)
 
 
 def gather(source: np.ndarray, nodes: np.ndarray, workers: int, out: np.ndarray | None = None) -> np.ndarray:
@@ -150,7 +151,7 @@ def gather(source: np.ndarray, nodes: np.ndarray, workers: int, out: np.ndarray 
     same gather."""
     if out is None:
         out = np.empty(nodes.shape, dtype=source.dtype)
-    by_rows(_threads(nodes, workers), nodes.size,
+    by_rows(shares(nodes, workers), nodes.size,
             lambda a, b: np.take(source, nodes[a:b], out=out[a:b], mode="clip"))
     return out
 
@@ -158,10 +159,8 @@ def gather(source: np.ndarray, nodes: np.ndarray, workers: int, out: np.ndarray 
 def scatter(target: np.ndarray, nodes: np.ndarray, values, workers: int) -> None:
     """target[nodes] = values (a 1-D ``target``, ``nodes`` distinct, ``values`` of their length
     or a scalar), by blocks of ``nodes``: distinct nodes make the blocks' writes disjoint."""
-    if np.ndim(values):
-        by_rows(_threads(nodes, workers), nodes.size, lambda a, b: target.__setitem__(nodes[a:b], values[a:b]))
-    else:
-        by_rows(_threads(nodes, workers), nodes.size, lambda a, b: target.__setitem__(nodes[a:b], values))
+    part = _rows_of(values)
+    by_rows(shares(nodes, workers), nodes.size, lambda a, b: target.__setitem__(nodes[a:b], part(a, b)))
 
 
 #: masks with more than one node in this many set take numpy's own ``flatnonzero`` (a count and a
@@ -175,20 +174,20 @@ def nonzero(mask: np.ndarray, workers: int) -> np.ndarray:
     threads, and each block's indices are then written at its offset into the one result
     (ascending, as numpy's). A dense mask (DENSE_NONZERO) is searched whole, as numpy's fill is
     the faster there and holds no second copy of its indices."""
-    shares = _threads(mask, workers)
-    if shares <= 1:
+    threads = shares(mask, workers)
+    if threads <= 1:
         return np.flatnonzero(mask)
     count = int(np.count_nonzero(mask))
     if count > mask.size // DENSE_NONZERO:
         return np.flatnonzero(mask)
-    bounds = np.linspace(0, mask.size, shares + 1).astype(np.intp)
-    parts: list[np.ndarray | None] = [None] * shares
+    bounds = np.linspace(0, mask.size, threads + 1).astype(np.intp)
+    parts: list[np.ndarray | None] = [None] * threads
 
     def find(first: int, last: int) -> None:
         for share in range(first, last):
             parts[share] = np.flatnonzero(mask[bounds[share]:bounds[share + 1]])
 
-    by_rows(shares, shares, find)
+    by_rows(threads, threads, find)
     offsets = np.concatenate(([0], np.cumsum([part.size for part in parts])))
     out = np.empty(count, dtype=np.intp)
 
@@ -196,5 +195,5 @@ def nonzero(mask: np.ndarray, workers: int) -> np.ndarray:
         for share in range(first, last):
             np.add(parts[share], bounds[share], out=out[offsets[share]:offsets[share + 1]])
 
-    by_rows(shares, shares, place)
+    by_rows(threads, threads, place)
     return out

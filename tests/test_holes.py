@@ -10,7 +10,7 @@ from roughcontact.errors import InputError
 from roughcontact.materials import Interface, Material
 from roughcontact.normal.constrained_cg import CGSettings
 from roughcontact.operators.flexibility import Flexibility
-from roughcontact.operators.holes import HoleCharge, enclosed
+from roughcontact.operators.holes import DUST, HoleCharge, enclosed
 from roughcontact.surfaces import Topography
 from roughcontact.surfaces.rows import split
 
@@ -84,6 +84,24 @@ def whole_grid_rims(inside: np.ndarray) -> np.ndarray:
     return ndimage.binary_dilation(holes, np.ones((3, 3), bool)) & ~near_open
 
 
+def whole_grid_weights(inside: np.ndarray, block: int) -> tuple[np.ndarray, bool]:
+    """(the share of r each node of the grid takes back, whether the outside is a dust of holes),
+    by scipy on the whole grid and loops over the blocks: where the holes hold at least DUST of
+    the whole outside, γ_b (the block's outside in holes) on every node of a block with γ_b ≥ DUST,
+    1 on the rims of the others; else 1 on the rims alone."""
+    outside = ~inside
+    holes = whole_grid_holes(outside)
+    weights = whole_grid_rims(inside).astype(float)
+    dust = outside.sum() > 0 and holes.sum() >= DUST * outside.sum()
+    if dust:
+        for i in range(0, inside.shape[0], block):
+            for j in range(0, inside.shape[1], block):
+                square = (slice(i, i + block), slice(j, j + block))
+                if outside[square].sum() and holes[square].sum() >= DUST * outside[square].sum():
+                    weights[square] = holes[square].sum() / outside[square].sum()
+    return weights, bool(dust)
+
+
 @pytest.mark.parametrize("density", [0.6, 0.9])
 def test_the_rims_of_holes_match_a_whole_grid_reference_on_any_rank_count(comm, density):
     """The rims the charge is taken on (RIM = 1), found by slabs with their neighbours' edge rows,
@@ -134,12 +152,43 @@ def test_a_constant_gap_loses_the_charge_on_the_rims_on_any_rank_count(comm, hol
         flex.destroy()
 
 
+def test_a_dust_of_holes_loses_the_charge_on_its_blocks_on_any_rank_count(comm):
+    """Near full contact (holes 30 of the 54 nodes outside, ≥ DUST) a constant gap loses
+    r^h = γ_b r on every node of the blocks whose outside is mostly holes (γ_b = 1 here) and r on
+    the rims of the others (the blocks along the open strip, γ_b = 1/3), by
+    :func:`whole_grid_weights` (round-off of one division and one product, 1e-14); on any rank
+    count, with blocks that straddle the slabs' boundaries."""
+    n, m = 24, 20
+    inside = np.ones((n, m), dtype=bool)
+    inside[:, 0] = False                                 # open: it touches the frame
+    inside[2::4, 2::4] = False                           # 30 single-node holes
+    flex = Flexibility(Topography(np.zeros((n, m)), SPACING), ROCK, comm, kind="fft")
+    try:
+        r0, _ = flex.layout.rows
+        members = inside.reshape(-1)[r0 * m + flex.layout.positions]
+        nodes = np.flatnonzero(members)
+        edge = 1.0 + np.random.default_rng(r0).random(nodes.size)
+        holes = HoleCharge(flex.layout, comm, share=0.8, block=8)
+        holes.relabel(members)
+        holes.update(nodes, edge)
+        weights, dust = whole_grid_weights(inside, 8)
+        assert dust and holes.dust is not None
+        assert set(np.unique(weights)) == {0.0, 1.0} and (weights[:, 8:] == 1.0).all()
+        z = np.zeros(nodes.size)
+        holes.subtract(np.ones(nodes.size), z)
+        expected = edge * 0.25 * weights.reshape(-1)[r0 * m + flex.layout.positions][nodes]
+        np.testing.assert_allclose(z, -expected, rtol=1e-14, atol=0.0)
+    finally:
+        flex.destroy()
+
+
 @pytest.mark.parametrize("density", [0.6, 0.9])
 def test_the_hole_charge_keeps_the_preconditioner_positive_definite(density):
     """M' = M − Σ_b r^h_b r^h_bᵀ / (1ᵀ r^h_b) on a random set of 24² with blocks of 8: symmetric;
-    bounded below by M − diag(r) (Cauchy–Schwarz, the module's argument) and positive definite;
-    and the block-constant field loses exactly 1ᵀ r^h_b, r^h the charge r = e (1 − share) / share
-    on the rims. Tolerances: round-off of dense sums of ~600 terms (1e-12 relative to C⁻¹'s
+    bounded below by M − diag(r) (Cauchy–Schwarz, the module's argument, with r^h ≤ r) and
+    positive definite; and the block-constant field loses exactly 1ᵀ r^h_b, r^h the charge
+    r = e (1 − share) / share in the shares of :func:`whole_grid_weights` (both sets are a dust of
+    holes: 40 % and 10 % of the nodes outside, most of it enclosed). Tolerances: round-off of dense sums of ~600 terms (1e-12 relative to C⁻¹'s
     diagonal)."""
     from mpi4py import MPI
 
@@ -153,8 +202,9 @@ def test_the_hole_charge_keeps_the_preconditioner_positive_definite(density):
         holes = HoleCharge(flex.layout, MPI.COMM_SELF, share=0.8, block=8)
         holes.relabel(members)
         holes.update(nodes, edge)
-        rims = whole_grid_rims(members.reshape(n, n)).reshape(-1)[nodes]
-        assert holes.active and rims.any()
+        weights, dust = whole_grid_weights(members.reshape(n, n), 8)
+        weights = weights.reshape(-1)[nodes]
+        assert holes.active and dust == (holes.dust is not None)
 
         def corrected(g):
             z = flex.precondition_nodes(g, nodes, edge=edge)
@@ -175,7 +225,7 @@ def test_the_hole_charge_keeps_the_preconditioner_positive_definite(density):
         for b in range(9):
             field = (blocks == b).astype(float)
             lost = field @ (plain - taken) @ field
-            assert abs(lost - charge[(blocks == b) & rims].sum()) <= 1e-12 * scale * field.sum()
+            assert abs(lost - (charge * weights)[blocks == b].sum()) <= 1e-12 * scale * field.sum()
     finally:
         flex.destroy()
 

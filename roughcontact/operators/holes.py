@@ -53,6 +53,23 @@ iterations (0.46–6.45, 0.44–11.6, 0.45–23.0) before; the large-grid scene
   grid took the top near full contact at 512² from 6.45 to 3.22 only: the
   field that pays too much is constant on patches of holes, not over the
   grid.
+
+Where the outside is a dust of holes (near full contact: holes hold at
+least DUST = 1/2 of the outside over the whole grid), a block whose outside
+is at least DUST holes takes the charge back on every node of S in that
+share γ_b, r^h = γ_b r, and the other blocks on their rims as above (the
+second form of the list, kept where it pays). With the blocks' rule
+alone, on every set, it cost the large-grid scene at 4096² 4 fine
+iterations in the solve (35 against 31; 33 without the nodes next to the
+open outside, 34 with the blocks' threshold at 0.9): its blocks inside
+large islands that enclose holes have γ_b near 1 too. The scene's outside
+is an open sea, which keeps it below the switch on the whole grid. Whole
+solves (one rank, fine iterations), rims alone → with the dust: near full
+contact (Δ = 2.5, 1 E*) 256² / 512² / 1024² / 2048² / 4096² 18 / 22 / 29 /
+37 / 52 → 19 / 21 / 27 / 34 / 48; the scene 14 / 15 / 17 / 21 / 31 both
+(docs/solver-cost.md, "The hole charge on a dust of holes"). There r^h is
+kept on every node of S by runs of nodes in one row of one block
+(:class:`_Runs`), so that the subtraction gathers and scatters nothing.
 """
 from __future__ import annotations
 
@@ -67,6 +84,10 @@ from ..surfaces.rows import rows_window
 HOLE_BLOCK = 64
 #: the rims of holes: the nodes within this many (a square) of a hole and not of the open outside
 RIM = 1
+#: the outside is a dust of holes (near full contact) where holes hold at least this share of it
+#: over the whole grid; then a block whose outside is at least this share holes, γ_b, takes the
+#: charge back on all its nodes of S in that share, the others on their rims
+DUST = 0.5
 
 
 def enclosed(outside: np.ndarray, comm, first_row: int, rows_total: int) -> np.ndarray:
@@ -110,8 +131,9 @@ def enclosed(outside: np.ndarray, comm, first_row: int, rows_total: int) -> np.n
 
 
 class HoleCharge:
-    """M' = M − Σ_b r_b r_bᵀ / (1ᵀ r_b), r the charge left on the rims of holes, on a free set that
-    changes from one call to the next (module docstring); the layout of a
+    """M' = M − Σ_b r^h_b r^h_bᵀ / (1ᵀ r^h_b), r^h the charge left on the rims of holes (or, where
+    the outside is a dust of holes, on the dust blocks' nodes in the share γ_b), on a free set
+    that changes from one call to the next (module docstring); the layout of a
     :class:`~.flexibility.Flexibility`."""
 
     def __init__(self, layout, comm, share: float, block: int = HOLE_BLOCK):
@@ -122,18 +144,24 @@ class HoleCharge:
         self.grid = (-(-nx // block), -(-ny // block))  # blocks per direction
         self.count = self.grid[0] * self.grid[1]        # blocks
         self.rim = np.zeros(0, dtype=bool)              # the rims of holes, over this rank's slab
-        # r^h is zero off the rims: the charge is kept on the nodes of S on a rim alone
-        self.on_rim = np.zeros(0, dtype=np.intp)        # their places in S
-        self.blocks = np.zeros(0, dtype=np.int32)       # their blocks
-        self.scale = np.zeros(0)                        # r_i / (1ᵀ r_b) there
-        self.charge = np.zeros(0)                       # r there
+        # γ_b where a block takes the charge on all its nodes of S (0: on its rims), None: rims only
+        self.dust: np.ndarray | None = None
+        # r^h, by runs of nodes in one row of one block (the nodes are in slab order), so that no
+        # node holds its block's index: on the nodes of S on a rim alone, or on every node of S
+        # where the outside is a dust of holes
+        self.on_rim: np.ndarray | None = np.zeros(0, dtype=np.intp)   # their places in S (None: all)
+        self.charge = np.zeros(0)                       # r^h there
+        self.runs = _Runs.empty()                       # their runs
+        self.inverse = np.zeros(self.count)             # 1 / (1ᵀ r^h_b), 0 where a block has none
         self.active = False                             # whether any block takes charge back
         self.labelled = False                           # whether the rims have been found
 
     def relabel(self, members: np.ndarray) -> None:
         """The rims of the holes of the free set given as the mask ``members`` over this rank's
         nodes: the nodes within RIM of a hole and not within RIM of the open outside or of the
-        grid's frame (beyond it the outside is open); collective."""
+        grid's frame (beyond it the outside is open); and, where the holes hold at least DUST of
+        the outside over the whole grid, the blocks whose outside is at least DUST holes and
+        their share γ_b; collective."""
         nx, ny = self.layout.shape
         r0, r1 = self.layout.rows
         outside = np.ones((r1 - r0) * ny, dtype=bool)
@@ -143,38 +171,105 @@ class HoleCharge:
         near_hole = _near(holes, self.comm, r0, nx, beyond=False)
         near_open = _near(outside & ~holes, self.comm, r0, nx, beyond=True)
         self.rim = (near_hole & ~near_open).reshape(-1)
+        counts = self.comm.allreduce(np.concatenate([self._block_counts(outside), self._block_counts(holes)]))
+        out_b, holes_b = counts[:self.count], counts[self.count:]
+        self.dust = None
+        if holes_b.sum() >= DUST * out_b.sum() > 0:
+            share = np.divide(holes_b, out_b, out=np.zeros(self.count), where=out_b > 0)
+            self.dust = np.where(share >= DUST, share, 0.0)
         self.labelled = True
+
+    def _block_counts(self, field: np.ndarray) -> np.ndarray:
+        """The True nodes of this rank's (rows, ny) slab ``field`` in each block (float64)."""
+        out = np.zeros(self.count)
+        rows = field.shape[0]
+        if rows == 0:
+            return out
+        block_rows = (self.layout.rows[0] + np.arange(rows)) // self.block
+        starts = np.flatnonzero(np.diff(block_rows, prepend=-1))
+        sums = np.add.reduceat(np.add.reduceat(field, starts, axis=0, dtype=np.int64),
+                               np.arange(0, field.shape[1], self.block), axis=1)
+        out[(block_rows[starts][:, None] * self.grid[1] + np.arange(self.grid[1])).reshape(-1)] = sums.reshape(-1)
+        return out
 
     def update(self, nodes: np.ndarray, edge: np.ndarray) -> None:
         """The charge on the free set given by this rank's node indices and its edge weights
         ``edge`` (on the same nodes); collective."""
-        ny = self.layout.shape[1]
         positions = self.layout.slab_positions(nodes)
-        # only the rims' nodes carry charge: near full contact at 2048² the blocks and scales of
-        # every node of S took 59 ms an update and the block sums 27 ms a subtraction
-        self.on_rim = np.flatnonzero(self.rim[positions])
-        positions = positions[self.on_rim]
-        rows, columns = np.divmod(positions, ny)
-        rows += self.layout.rows[0]
-        self.blocks = ((rows // self.block) * self.grid[1] + columns // self.block).astype(np.int32)
-        self.charge = edge[self.on_rim] * self.factor
-        totals = self.comm.allreduce(_block_sums(self.blocks, self.charge, self.count))
-        inverse = np.divide(1.0, totals, out=np.zeros_like(totals), where=totals > 0)
-        self.scale = self.charge * inverse[self.blocks]
+        self.charge = self.runs = None                  # the last set's, let go before the new are made
+        if self.dust is None:
+            # only the rims' nodes carry charge: near full contact at 2048² the blocks and scales
+            # of every node of S took 59 ms an update and the block sums 27 ms a subtraction
+            self.on_rim = np.flatnonzero(self.rim[positions])
+            self.charge = edge[self.on_rim] * self.factor
+            self.runs = _Runs.of(positions[self.on_rim], self.layout, self.block, self.grid)
+        else:
+            # a dust of holes: nearly every node of S carries charge, and all of them are kept (a
+            # weight of 0 where a block that takes it on its rims has a node off them), so that
+            # the subtraction needs no gather and no scatter of the set's values
+            # (built in place: temporaries of 8 B per node raised the peak near full contact)
+            self.on_rim = None
+            self.runs = _Runs.of(positions, self.layout, self.block, self.grid)
+            self.charge = self.runs.spread(self.dust)       # γ_b, or 0 on the blocks on their rims
+            np.copyto(self.charge, self.rim[positions], where=self.charge == 0.0)
+            self.charge *= edge
+            self.charge *= self.factor
+        totals = self.comm.allreduce(self.runs.block_sums(self.charge, self.count))
+        self.inverse = np.divide(1.0, totals, out=np.zeros_like(totals), where=totals > 0)
         self.active = bool(np.any(totals > 0))
 
     def subtract(self, g: np.ndarray, z: np.ndarray) -> None:
-        """z −= Σ_b r_b (r_bᵀ g) / (1ᵀ r_b) on the free set of the last :meth:`update`; collective."""
+        """z −= Σ_b r^h_b (r^h_bᵀ g) / (1ᵀ r^h_b) on the free set of the last :meth:`update`;
+        collective."""
         if not self.active:
             return
-        sums = self.comm.allreduce(_block_sums(self.blocks, self.charge * g[self.on_rim], self.count))
-        z[self.on_rim] -= self.scale * sums[self.blocks]
+        on = g if self.on_rim is None else g[self.on_rim]
+        sums = self.comm.allreduce(self.runs.block_sums(self.charge * on, self.count))
+        taken = self.runs.spread(sums * self.inverse)
+        taken *= self.charge
+        if self.on_rim is None:
+            z -= taken
+        else:
+            z[self.on_rim] -= taken
 
 
-def _block_sums(blocks: np.ndarray, values: np.ndarray, count: int) -> np.ndarray:
-    """The sum of ``values`` on each of ``count`` blocks, float64 also where no node is on a rim
-    (np.bincount of nothing is integer)."""
-    return np.bincount(blocks, weights=values, minlength=count).astype(float, copy=False)
+class _Runs:
+    """Nodes in slab order cut into runs that lie in one row of one block: each run's first place,
+    its length and its block. A block's sum is its runs' sums (``numpy.add.reduceat``), and a
+    value per block is spread back over its nodes run by run (``numpy.repeat``): near full
+    contact at 2048² the blocks' indices of 3.6 M nodes took 52 ms to make and 17 ms to sum by
+    (``numpy.bincount``), the runs 3 ms to sum by."""
+
+    def __init__(self, starts: np.ndarray, lengths: np.ndarray, blocks: np.ndarray):
+        self.starts, self.lengths, self.blocks = starts, lengths, blocks
+
+    @classmethod
+    def empty(cls) -> "_Runs":
+        return cls(np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp))
+
+    @classmethod
+    def of(cls, positions: np.ndarray, layout, block: int, grid: tuple[int, int]) -> "_Runs":
+        """The runs of the ascending flat slab ``positions`` on ``layout``'s rows (one search per
+        row and block column, none per node); runs without nodes are dropped."""
+        r0, r1 = layout.rows
+        ny = layout.shape[1]
+        rows = np.arange(r1 - r0)
+        firsts = (rows[:, None] * ny + np.arange(0, ny, block)[None, :]).reshape(-1)
+        starts = np.searchsorted(positions, firsts)
+        lengths = np.diff(starts, append=positions.size)
+        blocks = (((r0 + rows) // block)[:, None] * grid[1] + np.arange(grid[1])[None, :]).reshape(-1)
+        kept = lengths > 0
+        return cls(starts[kept], lengths[kept], blocks[kept])
+
+    def block_sums(self, values: np.ndarray, count: int) -> np.ndarray:
+        """The sum of ``values`` (one per node of the runs) on each of ``count`` blocks (float64)."""
+        if self.starts.size == 0:
+            return np.zeros(count)
+        return np.bincount(self.blocks, weights=np.add.reduceat(values, self.starts), minlength=count)
+
+    def spread(self, per_block: np.ndarray) -> np.ndarray:
+        """``per_block``'s value of each node's block, node by node."""
+        return np.repeat(per_block[self.blocks], self.lengths)
 
 
 def _near(field: np.ndarray, comm, first_row: int, rows_total: int, beyond: bool) -> np.ndarray:

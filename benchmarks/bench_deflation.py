@@ -46,10 +46,14 @@ what deflation would take off the solver's settled rate. Rows ``twolevel-block<b
 (``--parts twolevel``): the same blocks in the balancing form around that
 preconditioner, with W = H Z exact and from the cheap products of
 :mod:`benchmarks.two_level` (:func:`solver_rows` too: both take each space's
-exact A Z from one set of products).
+exact A Z from one set of products). Rows ``exact-inner<tol>`` (``--parts exact``): the
+ceiling of every preconditioner of this family, C_SS⁻¹ itself (the inverse of C on the set,
+where the package's M is R_S C⁻¹ R_Sᵀ less its corrections), as H_SS⁻¹ = B_SS − B_SO B_OO⁻¹ B_OS
+with O the whole period outside S (the grid's outside and C's margin) and B_OO⁻¹ by an inner
+Jacobi CG to EXACT_TOLS, beside the solver's own on the same set (:func:`exact_rows`).
 
     python -m benchmarks.bench_deflation [--sizes 256 512 1024 2048] [--max-vectors 120]
-        [--scenes scene full] [--parts deflation spectrum edge schur period modes solver twolevel]
+        [--scenes scene full] [--parts deflation spectrum edge schur period modes solver twolevel exact]
         [--output results/bench_deflation.json]
 """
 from __future__ import annotations
@@ -74,14 +78,16 @@ from benchmarks.common import (
 
 TOL = 1e-8
 #: the row groups: deflated PCG (``none``, ``poly``, ``block``), ``spectrum``, ``edge``, ``schur``, ``period``,
-#: ``modes``, ``solver``, ``twolevel``
-PARTS = ("deflation", "spectrum", "edge", "schur", "period", "modes", "solver", "twolevel")
+#: ``modes``, ``solver``, ``twolevel``, ``exact``
+PARTS = ("deflation", "spectrum", "edge", "schur", "period", "modes", "solver", "twolevel", "exact")
 #: the ``period`` rows' frame: nodes within this many of the grid's edges
 FRAME = 8
 #: the ``modes`` rows' classes of islands by their nodes: (label, more than, at most)
 ISLAND_SIZES = (("<=16", 0, 16), ("17-256", 16, 256), (">256", 256, np.inf))
 #: the shares of the edge term the ``edge<share>`` rows remove (at the package's cap)
 EDGE_SHARES = (0.5, 0.7, 0.8, 0.9)
+#: the ``exact`` rows' inner tolerances for B_OO⁻¹ (relative, 2-norm): the first is the exact C_SS⁻¹
+EXACT_TOLS = (1e-10, 1e-3, 1e-2)
 #: the ``twolevel`` rows' cheap H Z: the coarse grid's factor and the near field's radius (nodes)
 CHEAP_FACTOR, CHEAP_RADIUS = 8, 4
 
@@ -200,6 +206,9 @@ def scene_rows(comm, scene: str, n: int, args) -> list[dict]:
             emit(comm, rows, {**base, **row})
     if "modes" in parts:
         for row in mode_rows(problem, apply, contact, result.contact, rhs):
+            emit(comm, rows, {**base, **row})
+    if "exact" in parts:
+        for row in exact_rows(problem, apply, contact, result.contact, rhs):
             emit(comm, rows, {**base, **row})
     if parts & {"solver", "twolevel"}:
         for row in solver_rows(problem, topography, apply, contact, result.contact, rhs, n, args.max_vectors,
@@ -410,6 +419,90 @@ def solver_rows(problem, topography, apply, contact: np.ndarray, in_contact: np.
         del az
     if cheap is not None:
         cheap.destroy()
+
+
+def exact_rows(problem, apply, contact: np.ndarray, in_contact: np.ndarray, rhs: np.ndarray):
+    """Rows ``solver`` and ``exact-inner<tol>``: fixed-set PCG iterations and Ritz values (40
+    Lanczos steps) with the solver's whole preconditioner and with C_SS⁻¹, B_OO⁻¹ to each of
+    EXACT_TOLS (``inner_median`` / ``inner_max``: the inner iterations of one application, each a
+    periodic product; ``periodic_pairs`` per application, their median plus two). One rank."""
+    solver = solver_preconditioner(problem, contact, in_contact)
+    ritz = lanczos_ritz(apply, solver, np.random.default_rng(1).standard_normal(contact.size), 40)
+    yield {"space": "solver", "vectors": 0, "iterations": pcg(apply, solver, rhs),
+           "ritz_min": float(ritz[0]), "ritz_max": float(ritz[-1]), "periodic_pairs": 1}
+    for tol in EXACT_TOLS:
+        inverse, inner = exact_inverse(problem.flexibility, contact, tol)
+        iterations = pcg(apply, inverse, rhs)
+        counts = list(inner)
+        ritz = lanczos_ritz(apply, inverse, np.random.default_rng(1).standard_normal(contact.size), 40)
+        yield {"space": f"exact-inner{tol:g}", "vectors": 0, "iterations": iterations,
+               "ritz_min": float(ritz[0]), "ritz_max": float(ritz[-1]),
+               "inner_median": float(np.median(counts)), "inner_max": int(max(counts)),
+               "periodic_pairs": float(np.median(counts)) + 2}
+
+
+def exact_inverse(flexibility, contact: np.ndarray, tol: float):
+    """(v ↦ [B ṽ − B R_Oᵀ B_OO⁻¹ R_O B ṽ]_S, the inner iteration counts of its applications so far):
+    C_SS⁻¹ (B = C⁻¹, the preconditioner's periodic symbol on its whole period; ṽ: v on S, zero
+    elsewhere on the period; O the period's nodes outside S) with B_OO⁻¹ by CG with Jacobi to a
+    relative residual ``tol``. Checked first against the package's plain M = R_S C⁻¹ R_Sᵀ, which
+    it must equal without the Schur term. One rank."""
+    import scipy.fft as sfft
+
+    convolution = flexibility.preconditioner.convolution
+    lengths = tuple(convolution.lengths)
+    symbol = convolution.symbol                        # C⁻¹'s, (Lx, Ly // 2 + 1)
+    workers = convolution.workers
+
+    def spread(field):
+        return sfft.irfft2(sfft.rfft2(field, workers=workers) * symbol, s=lengths, workers=workers)
+
+    rows, columns = np.divmod(contact, flexibility.shape[1])
+    outside = np.ones(lengths, dtype=bool)
+    outside[rows, columns] = False
+    delta = np.zeros(lengths)
+    delta[0, 0] = 1.0
+    diagonal = float(spread(delta)[0, 0])
+
+    def embedded(values):
+        field = np.zeros(lengths)
+        field[rows, columns] = values
+        return field
+
+    probe = np.random.default_rng(5).standard_normal(contact.size)
+    plain = spread(embedded(probe))[rows, columns]
+    package = flexibility.precondition_nodes(probe, contact)
+    mismatch = np.linalg.norm(plain - package) / np.linalg.norm(package)
+    if not mismatch < 1e-10:
+        raise RuntimeError(f"B on the period differs from the package's R_S C⁻¹ R_Sᵀ by {mismatch:.2e}")
+    inner: list[int] = []
+
+    def solve_outside(right):                          # B_OO y = right (zero off O)
+        y = np.zeros(lengths)
+        residual = right.copy()
+        z = residual / diagonal
+        direction, rz = z.copy(), float(np.vdot(residual, z))
+        norm = np.linalg.norm(right)
+        for iteration in range(1, 10001):
+            product = spread(direction)
+            product[~outside] = 0.0
+            step = rz / float(np.vdot(direction, product))
+            y += step * direction
+            residual -= step * product
+            if np.linalg.norm(residual) <= tol * norm:
+                inner.append(iteration)
+                return y
+            z = residual / diagonal
+            rz, previous = float(np.vdot(residual, z)), rz
+            direction = z + (rz / previous) * direction
+        raise RuntimeError(f"the inner CG on B_OO did not reach {tol:g} in 10000 iterations")
+
+    def inverse(values):
+        smoothed = spread(embedded(values))
+        right = np.where(outside, smoothed, 0.0)
+        return (smoothed - spread(solve_outside(right)))[rows, columns]
+
+    return inverse, inner
 
 
 def lanczos_ritz(apply, precondition, rhs, steps: int) -> np.ndarray:

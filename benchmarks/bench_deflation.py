@@ -48,7 +48,7 @@ preconditioner, with W = H Z exact and from the cheap products of
 :mod:`benchmarks.two_level` (:func:`solver_rows` too: both take each space's
 exact A Z from one set of products). Rows ``exact-inner<tol>`` (``--parts exact``): the
 ceiling of every preconditioner of this family, C_SS⁻¹ itself (the inverse of C on the set,
-where the package's M is R_S C⁻¹ R_Sᵀ less its corrections), as H_SS⁻¹ = B_SS − B_SO B_OO⁻¹ B_OS
+where the package's M is R_S C⁻¹ R_Sᵀ less its corrections), as C_SS⁻¹ = B_SS − B_SO B_OO⁻¹ B_OS
 with O the whole period outside S (the grid's outside and C's margin) and B_OO⁻¹ by an inner
 Jacobi CG to EXACT_TOLS, beside the solver's own on the same set (:func:`exact_rows`).
 
@@ -446,8 +446,13 @@ def exact_inverse(flexibility, contact: np.ndarray, tol: float):
     C_SS⁻¹ (B = C⁻¹, the preconditioner's periodic symbol on its whole period; ṽ: v on S, zero
     elsewhere on the period; O the period's nodes outside S) with B_OO⁻¹ by CG with Jacobi to a
     relative residual ``tol``. Checked first against the package's plain M = R_S C⁻¹ R_Sᵀ, which
-    it must equal without the Schur term. One rank."""
+    it must equal without the Schur term. One rank, a footprint that fills the grid (``contact``:
+    grid nodes)."""
     import scipy.fft as sfft
+
+    if not flexibility.layout.whole_grid:
+        raise RuntimeError("the exact rows take the contact set's nodes as grid nodes: they need a "
+                           "footprint that fills the grid")
 
     convolution = flexibility.preconditioner.convolution
     lengths = tuple(convolution.lengths)

@@ -2,10 +2,9 @@
 
 ``exact_inverse`` applies B_SS − B_SO B_OO⁻¹ B_OS (B = C⁻¹ on C's whole
 period, O the period outside S), which by the block inverse of C on the
-period is the inverse of C restricted to S. The test builds C on the period
-as a dense matrix from the columns of its circulant (the inverse of the
-package's C⁻¹ symbol), restricts it to S, and checks that the benchmark's
-operator inverts it.
+period is the inverse of C restricted to S. The test builds C_SS as a dense
+matrix from the column of C's circulant on the period (the inverse of the
+package's C⁻¹ symbol), and checks that the benchmark's operator inverts it.
 """
 import numpy as np
 import pytest
@@ -27,16 +26,17 @@ def scene():
     problem.destroy()
 
 
-def _dense_c(problem):
-    """C on the preconditioner's period, a dense matrix over the period's nodes in row-major
-    order, from C's symbol (the reciprocal of the package's C⁻¹ symbol) by inverse FFTs."""
+def _c_on_set(problem, contact):
+    """C_SS, dense: C on the preconditioner's period, from C's symbol (the reciprocal of the
+    package's C⁻¹ symbol) by an inverse FFT, its circulant's rows and columns at the set's grid
+    nodes ``contact``."""
     import scipy.fft as sfft
 
     convolution = problem.flexibility.preconditioner.convolution
     lx, ly = convolution.lengths
     column = sfft.irfft2(1.0 / convolution.symbol, s=(lx, ly))      # C's column at node (0, 0)
-    i, j = np.divmod(np.arange(lx * ly), ly)
-    return column[(i[:, None] - i[None, :]) % lx, (j[:, None] - j[None, :]) % ly], ly
+    i, j = np.divmod(contact, problem.topography.shape[1])         # the set's places on the period
+    return column[(i[:, None] - i[None, :]) % lx, (j[:, None] - j[None, :]) % ly]
 
 
 def test_exact_inverse_inverts_c_on_the_set(scene):
@@ -47,11 +47,7 @@ def test_exact_inverse_inverts_c_on_the_set(scene):
 
     problem, contact = scene
     assert 0 < contact.size < problem.size
-    c, ly = _dense_c(problem)
-    nx, ny = problem.topography.shape
-    rows, columns = np.divmod(contact, ny)
-    on_period = rows * ly + columns
-    c_ss = c[np.ix_(on_period, on_period)]
+    c_ss = _c_on_set(problem, contact)
     inverse, inner = exact_inverse(problem.flexibility, contact, 1e-10)
     v = np.random.default_rng(2).standard_normal(contact.size)
     assert np.linalg.norm(inverse(c_ss @ v) - v) <= 1e-7 * np.linalg.norm(v)
@@ -62,11 +58,7 @@ def test_exact_inverse_differs_from_the_plain_preconditioner(scene):
     """The Schur term is not zero: R_S C⁻¹ R_Sᵀ alone is C_SS⁻¹ only where S fills the period,
     and on this set it misses C_SS⁻¹ (C_SS v) = v by more than 10 %."""
     problem, contact = scene
-    c, ly = _dense_c(problem)
-    ny = problem.topography.shape[1]
-    rows, columns = np.divmod(contact, ny)
-    on_period = rows * ly + columns
-    c_ss = c[np.ix_(on_period, on_period)]
+    c_ss = _c_on_set(problem, contact)
     v = np.random.default_rng(2).standard_normal(contact.size)
     plain = problem.flexibility.precondition_nodes(c_ss @ v, contact)
     assert np.linalg.norm(plain - v) > 0.1 * np.linalg.norm(v)

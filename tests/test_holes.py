@@ -121,6 +121,28 @@ def test_the_rims_of_holes_match_a_whole_grid_reference_on_any_rank_count(comm, 
         flex.destroy()
 
 
+def constant_gap_loss(inside: np.ndarray, comm):
+    """The hole charge (share 0.8, blocks of 8) of the set ``inside`` (a mask of the whole grid)
+    on this rank's nodes, with random edge weights e in [1, 2): (z = 0 less the charge for g = 1
+    on S, e, the set's nodes as flat indices of the grid, the charge)."""
+    n, m = inside.shape
+    flex = Flexibility(Topography(np.zeros((n, m)), SPACING), ROCK, comm, kind="fft")
+    try:
+        r0, _ = flex.layout.rows
+        on_slab = r0 * m + flex.layout.positions
+        members = inside.reshape(-1)[on_slab]
+        nodes = np.flatnonzero(members)
+        edge = 1.0 + np.random.default_rng(r0).random(nodes.size)
+        holes = HoleCharge(flex.layout, comm, share=0.8, block=8)
+        holes.relabel(members)
+        holes.update(nodes, edge)
+        z = np.zeros(nodes.size)
+        holes.subtract(np.ones(nodes.size), z)
+        return z, edge, on_slab[nodes], holes
+    finally:
+        flex.destroy()
+
+
 @pytest.mark.parametrize("hole", [False, True])
 def test_a_constant_gap_loses_the_charge_on_the_rims_on_any_rank_count(comm, hole):
     """For g = 1 on S each block's term takes back r_b (r_bᵀ 1) / (1ᵀ r_b) = r_b: z loses exactly
@@ -128,28 +150,15 @@ def test_a_constant_gap_loses_the_charge_on_the_rims_on_any_rank_count(comm, hol
     (round-off of one division and one product, 1e-14). The set's outside is a strip open to the
     left edge, with or without a hole of 2 × 2 in the first rows: ranks without rims, or no rims
     at all, take part in the charge's sums with nothing of their own."""
-    n, m = 24, 20
-    inside = np.ones((n, m), dtype=bool)
+    inside = np.ones((24, 20), dtype=bool)
     inside[:, :3] = False
     if hole:
         inside[2:4, 10:12] = False
-    flex = Flexibility(Topography(np.zeros((n, m)), SPACING), ROCK, comm, kind="fft")
-    try:
-        r0, _ = flex.layout.rows
-        members = inside.reshape(-1)[r0 * m + flex.layout.positions]
-        nodes = np.flatnonzero(members)
-        edge = 1.0 + np.random.default_rng(r0).random(nodes.size)
-        holes = HoleCharge(flex.layout, comm, share=0.8, block=8)
-        holes.relabel(members)
-        holes.update(nodes, edge)
-        rims = whole_grid_rims(inside).reshape(-1)[r0 * m + flex.layout.positions][nodes]
-        z = np.zeros(nodes.size)
-        holes.subtract(np.ones(nodes.size), z)
-        np.testing.assert_allclose(z, -np.where(rims, edge * 0.25, 0.0), rtol=1e-14, atol=0.0)
-        assert holes.active == hole
-        assert comm.allreduce(int(rims.sum())) == (12 if hole else 0)    # the 4 × 4 square less the hole
-    finally:
-        flex.destroy()
+    z, edge, on_grid, holes = constant_gap_loss(inside, comm)
+    rims = whole_grid_rims(inside).reshape(-1)[on_grid]
+    np.testing.assert_allclose(z, -np.where(rims, edge * 0.25, 0.0), rtol=1e-14, atol=0.0)
+    assert holes.active == hole
+    assert comm.allreduce(int(rims.sum())) == (12 if hole else 0)    # the 4 × 4 square less the hole
 
 
 def test_a_dust_of_holes_loses_the_charge_on_its_blocks_on_any_rank_count(comm):
@@ -158,28 +167,14 @@ def test_a_dust_of_holes_loses_the_charge_on_its_blocks_on_any_rank_count(comm):
     the rims of the others (the blocks along the open strip, γ_b = 1/3), by
     :func:`whole_grid_weights` (round-off of one division and one product, 1e-14); on any rank
     count, with blocks that straddle the slabs' boundaries."""
-    n, m = 24, 20
-    inside = np.ones((n, m), dtype=bool)
+    inside = np.ones((24, 20), dtype=bool)
     inside[:, 0] = False                                 # open: it touches the frame
     inside[2::4, 2::4] = False                           # 30 single-node holes
-    flex = Flexibility(Topography(np.zeros((n, m)), SPACING), ROCK, comm, kind="fft")
-    try:
-        r0, _ = flex.layout.rows
-        members = inside.reshape(-1)[r0 * m + flex.layout.positions]
-        nodes = np.flatnonzero(members)
-        edge = 1.0 + np.random.default_rng(r0).random(nodes.size)
-        holes = HoleCharge(flex.layout, comm, share=0.8, block=8)
-        holes.relabel(members)
-        holes.update(nodes, edge)
-        weights, dust = whole_grid_weights(inside, 8)
-        assert dust and holes.dust is not None
-        assert set(np.unique(weights)) == {0.0, 1.0} and (weights[:, 8:] == 1.0).all()
-        z = np.zeros(nodes.size)
-        holes.subtract(np.ones(nodes.size), z)
-        expected = edge * 0.25 * weights.reshape(-1)[r0 * m + flex.layout.positions][nodes]
-        np.testing.assert_allclose(z, -expected, rtol=1e-14, atol=0.0)
-    finally:
-        flex.destroy()
+    z, edge, on_grid, holes = constant_gap_loss(inside, comm)
+    weights, dust = whole_grid_weights(inside, 8)
+    assert dust and holes.dust is not None
+    assert set(np.unique(weights)) == {0.0, 1.0} and (weights[:, 8:] == 1.0).all()
+    np.testing.assert_allclose(z, -edge * 0.25 * weights.reshape(-1)[on_grid], rtol=1e-14, atol=0.0)
 
 
 @pytest.mark.parametrize("density", [0.6, 0.9])

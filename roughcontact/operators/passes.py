@@ -16,8 +16,8 @@ The pool is made on first use and kept for the process; with one worker, or
 an array of fewer than :data:`SHARED_VALUES` values, each pass is numpy's own
 whole-array call in the calling thread: the blocks' closures and bounds cost
 3–4 µs a call, as much as the pass itself on a 33² grid, where they made a
-task of 12 loads 15–24 % slower. Only the calling thread submits work, and no share submits
-any, so shares never wait on each other.
+task of 12 loads 10–24 % slower. Only the calling thread submits work, and
+no share submits any, so shares never wait on each other.
 """
 from __future__ import annotations
 

@@ -10,7 +10,7 @@ from roughcontact.errors import InputError
 from roughcontact.materials import Interface, Material
 from roughcontact.normal.constrained_cg import CGSettings
 from roughcontact.operators.flexibility import Flexibility
-from roughcontact.operators.holes import DUST, HoleCharge, enclosed
+from roughcontact.operators.holes import DUST, HOLE_BLOCK, HOLE_SPAN, HoleCharge, block_side, enclosed
 from roughcontact.surfaces import Topography
 from roughcontact.surfaces.rows import split
 
@@ -230,3 +230,14 @@ def test_hole_block_is_checked():
         CGSettings(hole_block=-1)
     with pytest.raises(InputError, match="hole_block"):
         CGSettings(hole_block=2.5)
+    with pytest.raises(InputError, match="hole_block"):
+        CGSettings(hole_block=True)
+    assert CGSettings().hole_block is None and CGSettings(hole_block=0).hole_block == 0
+
+
+def test_the_blocks_follow_the_grid_above_2048():
+    # the sides measured and documented (block_side): 64 up to 2048², 128 at 4096², the longer side
+    assert (HOLE_BLOCK, HOLE_SPAN) == (64, 32)
+    assert block_side((1024, 1024)) == block_side((2048, 2048)) == block_side((17, 4)) == 64
+    assert block_side((4096, 4096)) == block_side((129, 4096)) == 128
+    assert block_side((8192, 3000)) == 256

@@ -76,7 +76,7 @@ from scipy.linalg.blas import daxpy
 from ..errors import ConvergenceError, InputError
 from ..operators import passes
 from ..operators.convolution import dense
-from ..operators.holes import HOLE_BLOCK, HoleCharge
+from ..operators.holes import HoleCharge
 from ..operators.preconditioner import EDGE_SHARE, EDGE_UPDATES, EdgeWeights
 from .nested import COARSE_TOL, NestedStart
 from .problem import NormalProblem
@@ -198,6 +198,9 @@ class CGSettings:
         mostly holes take it on all their nodes of the set: near full contact
         256² to 4096² 18 / 22 / 29 / 37 / 52 → 19 / 21 / 27 / 34 / 48, the
         scene unchanged; the stability map 2081 → 2070, 120 / 120.
+        None (the default): HOLE_BLOCK = 64, or the grid's longer side over
+        HOLE_SPAN = 32 where that is more
+        (:func:`~roughcontact.operators.holes.block_side`).
     defer
         The far fields of the forces a cut restores wait (only their near
         field, 32 nodes around each, is added to H p at once) while
@@ -279,7 +282,7 @@ class CGSettings:
     max_newton: int = 50
     precision: str = "mixed"
     edge_share: float = EDGE_SHARE
-    hole_block: int = HOLE_BLOCK
+    hole_block: int | None = None
     defer: float = 1.0
     alternate_return: bool = True
 
@@ -300,9 +303,10 @@ class CGSettings:
                                            f"isolated nodes without a scaling), got {self.edge_share!r}")
         if not isinstance(self.alternate_return, (bool, np.bool_)):
             raise InputError("alternate_return", f"must be True or False, got {self.alternate_return!r}")
-        if not (isinstance(self.hole_block, (int, np.integer)) and self.hole_block >= 0):
-            raise InputError("hole_block", f"must be an integer >= 0 (the side of the blocks of the hole "
-                                           f"charge, 0: none), got {self.hole_block!r}")
+        if not (self.hole_block is None or isinstance(self.hole_block, (int, np.integer))
+                and not isinstance(self.hole_block, (bool, np.bool_)) and self.hole_block >= 0):
+            raise InputError("hole_block", f"must be None (the grid's own) or an integer >= 0 (the side "
+                                           f"of the blocks of the hole charge, 0: none), got {self.hole_block!r}")
 
 
 class ConstrainedCGSolver(NormalSolver):
@@ -465,7 +469,7 @@ class ConstrainedCGSolver(NormalSolver):
         edges = EdgeWeights(pb.flexibility.preconditioner, settings.edge_share) if self._corrected else None
         # the edge charge the holes of the free set let the preconditioner take back (None: none)
         holes = (HoleCharge(pb.flexibility.layout, pb.comm, settings.edge_share, settings.hole_block)
-                 if self._corrected and settings.hole_block else None)
+                 if self._corrected and settings.hole_block != 0 else None)
         taking = False                                 # whether the hole charge is taken now
         correcting = self._corrected                   # the edge correction in use (dropped where it stalls)
         history: list[float] = []

@@ -19,8 +19,8 @@ A hole here is a component of the outside (4-neighbours) that does not
 touch the grid's frame: beyond the frame a bounded grid is free surface, so a
 component that reaches it is open (:func:`enclosed`). The rims of the holes
 are the nodes of S within RIM of a hole and not within RIM of the open
-outside or of the frame, and r^h is r on the rims, 0 elsewhere. On blocks of
-HOLE_BLOCK × HOLE_BLOCK nodes the preconditioner takes back, for the field
+outside or of the frame, and r^h is r on the rims, 0 elsewhere. On square blocks
+(HOLE_BLOCK = 64 nodes a side up to 2048², :func:`block_side`) the preconditioner takes back, for the field
 constant on the block's nodes of S, the charge left on the rims:
 
     M' = M − Σ_b r^h_b r^h_bᵀ / (1ᵀ r^h_b).
@@ -80,14 +80,28 @@ from scipy.sparse.csgraph import connected_components
 
 from ..surfaces.rows import rows_window
 
-#: the side of the blocks on which the hole charge is taken back (nodes)
+#: the side of the blocks on which the hole charge is taken back (nodes), on grids of up to
+#: HOLE_SPAN × HOLE_BLOCK nodes a side
 HOLE_BLOCK = 64
+#: above that, the blocks' side is the grid's longer side over HOLE_SPAN (:func:`block_side`)
+HOLE_SPAN = 32
 #: the rims of holes: the nodes within this many (a square) of a hole and not of the open outside
 RIM = 1
 #: the outside is a dust of holes (near full contact) where holes hold at least this share of it
 #: over the whole grid; then a block whose outside is at least this share holes, γ_b, takes the
 #: charge back on all its nodes of S in that share, the others on their rims
 DUST = 0.5
+
+
+def block_side(shape: tuple[int, int]) -> int:
+    """The side of the hole charge's blocks on a grid of ``shape``: HOLE_BLOCK, or the longer
+    side over HOLE_SPAN where that is more (128 at 4096²). The range of scales over which holes
+    gather into patches grows with the grid; whole solves at 4096² (one rank, fine iterations,
+    blocks of 64 → 128): the large-grid scene, three surfaces, 31 / 31 / 25 → 29 / 30 / 25, near
+    full contact (Δ = 2.5, 1 E*), two surfaces, 48 / 50 → 44 / 48; at 1024² and 2048² blocks of
+    128 took the same or one more (docs/solver-cost.md, "The hole charge's blocks grow with the
+    grid")."""
+    return max(HOLE_BLOCK, max(shape) // HOLE_SPAN)
 
 
 def enclosed(outside: np.ndarray, comm, first_row: int, rows_total: int) -> np.ndarray:
@@ -136,12 +150,12 @@ class HoleCharge:
     that changes from one call to the next (module docstring); the layout of a
     :class:`~.flexibility.Flexibility`."""
 
-    def __init__(self, layout, comm, share: float, block: int = HOLE_BLOCK):
+    def __init__(self, layout, comm, share: float, block: int | None = None):
         self.layout, self.comm = layout, comm
         self.factor = (1.0 - share) / share             # r = e · factor
-        self.block = block
         nx, ny = layout.shape
-        self.grid = (-(-nx // block), -(-ny // block))  # blocks per direction
+        self.block = block_side(layout.shape) if block is None else block
+        self.grid = (-(-nx // self.block), -(-ny // self.block))  # blocks per direction
         self.count = self.grid[0] * self.grid[1]        # blocks
         self.rim = np.zeros(0, dtype=bool)              # the rims of holes, over this rank's slab
         # γ_b where a block takes the charge on all its nodes of S (0: on its rims), None: rims only

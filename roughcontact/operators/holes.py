@@ -19,9 +19,10 @@ A hole here is a component of the outside (4-neighbours) that does not
 touch the grid's frame: beyond the frame a bounded grid is free surface, so a
 component that reaches it is open (:func:`enclosed`). The rims of the holes
 are the nodes of S within RIM of a hole and not within RIM of the open
-outside or of the frame, and r^h is r on the rims, 0 elsewhere. On square blocks
-(HOLE_BLOCK = 64 nodes a side up to 2048², :func:`block_side`) the preconditioner takes back, for the field
-constant on the block's nodes of S, the charge left on the rims:
+outside or of the frame, and r^h is r on the rims, 0 elsewhere. On square
+blocks (HOLE_BLOCK = 64 nodes a side up to 2048², :func:`block_side`) the
+preconditioner takes back, for the field constant on the block's nodes of
+S, the charge left on the rims:
 
     M' = M − Σ_b r^h_b r^h_bᵀ / (1ᵀ r^h_b).
 
@@ -97,10 +98,10 @@ def block_side(shape: tuple[int, int]) -> int:
     """The side of the hole charge's blocks on a grid of ``shape``: HOLE_BLOCK, or the longer
     side over HOLE_SPAN where that is more (128 at 4096²). The range of scales over which holes
     gather into patches grows with the grid; whole solves at 4096² (one rank, fine iterations,
-    blocks of 64 → 128): the large-grid scene, three surfaces, 31 / 31 / 25 → 29 / 30 / 25, near
-    full contact (Δ = 2.5, 1 E*), two surfaces, 48 / 50 → 44 / 48; at 1024² and 2048² blocks of
-    128 took the same or one more (docs/solver-cost.md, "The hole charge's blocks grow with the
-    grid")."""
+    blocks of 64 → this rule, its 2048² coarse level on 64): the large-grid scene, three surfaces,
+    31 / 31 / 25 → 29 / 30 / 25, near full contact (Δ = 2.5, 1 E*), two surfaces, 48 / 50 → 47 /
+    48; at 1024² and 2048² blocks of 128 took the same or one more (docs/solver-cost.md, "The
+    hole charge's blocks grow with the grid")."""
     return max(HOLE_BLOCK, max(shape) // HOLE_SPAN)
 
 

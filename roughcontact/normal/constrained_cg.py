@@ -303,8 +303,9 @@ class CGSettings:
                                            f"isolated nodes without a scaling), got {self.edge_share!r}")
         if not isinstance(self.alternate_return, (bool, np.bool_)):
             raise InputError("alternate_return", f"must be True or False, got {self.alternate_return!r}")
-        if not (self.hole_block is None or isinstance(self.hole_block, (int, np.integer))
-                and not isinstance(self.hole_block, (bool, np.bool_)) and self.hole_block >= 0):
+        if not (self.hole_block is None
+                or (isinstance(self.hole_block, (int, np.integer))
+                    and not isinstance(self.hole_block, (bool, np.bool_)) and self.hole_block >= 0)):
             raise InputError("hole_block", f"must be None (the grid's own) or an integer >= 0 (the side "
                                            f"of the blocks of the hole charge, 0: none), got {self.hole_block!r}")
 

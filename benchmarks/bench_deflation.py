@@ -92,10 +92,14 @@ EXACT_TOLS = (1e-10, 1e-3, 1e-2)
 CHEAP_FACTOR, CHEAP_RADIUS = 8, 4
 
 
-def pcg(apply, precondition, rhs, deflation=None, limit: int = 1000) -> int:
-    """Iterations of (deflated) PCG on apply(x) = rhs to a relative residual TOL; raises where the
-    preconditioned operator shows a non-positive curvature or TOL is not met in ``limit``
+def pcg(apply, precondition, rhs, deflation=None, limit: int = 1000, tol: float = TOL,
+        solution: np.ndarray | None = None) -> int:
+    """Iterations of (deflated) PCG on apply(x) = rhs to a relative residual ``tol``, x from 0 and
+    added into ``solution`` where one is given (without deflation); raises where the
+    preconditioned operator shows a non-positive curvature or ``tol`` is not met in ``limit``
     iterations, so that no row reports a count that did not converge."""
+    if deflation is not None and solution is not None:
+        raise ValueError("pcg keeps no solution with deflation (its x needs the coarse part)")
     norm = np.linalg.norm(rhs)
     if deflation is None:
         project = lambda v: v                                  # noqa: E731
@@ -113,13 +117,15 @@ def pcg(apply, precondition, rhs, deflation=None, limit: int = 1000) -> int:
             raise RuntimeError(f"PCG iteration {iteration}: dᵀAd = {curvature:.3e}, rᵀz = {rz:.3e}: "
                                "the operator or the preconditioner is not positive definite here")
         step = rz / curvature
+        if solution is not None:
+            solution += step * direction
         residual -= step * product
-        if np.linalg.norm(residual) <= TOL * norm:
+        if np.linalg.norm(residual) <= tol * norm:
             return iteration
         z = precondition(residual)
         rz, previous = residual @ z, rz
         direction = z + (rz / previous) * direction
-    raise RuntimeError(f"PCG did not reach a relative residual {TOL:g} in {limit} iterations "
+    raise RuntimeError(f"PCG did not reach a relative residual {tol:g} in {limit} iterations "
                        f"(last {np.linalg.norm(residual) / norm:.3e})")
 
 
@@ -482,25 +488,16 @@ def exact_inverse(flexibility, contact: np.ndarray, tol: float):
         raise RuntimeError(f"B on the period differs from the package's R_S C⁻¹ R_Sᵀ by {mismatch:.2e}")
     inner: list[int] = []
 
-    def solve_outside(right):                          # B_OO y = right (zero off O)
-        y = np.zeros(lengths)
-        residual = right.copy()
-        z = residual / diagonal
-        direction, rz = z.copy(), float(np.vdot(residual, z))
-        norm = np.linalg.norm(right)
-        for iteration in range(1, 10001):
-            product = spread(direction)
-            product[~outside] = 0.0
-            step = rz / float(np.vdot(direction, product))
-            y += step * direction
-            residual -= step * product
-            if np.linalg.norm(residual) <= tol * norm:
-                inner.append(iteration)
-                return y
-            z = residual / diagonal
-            rz, previous = float(np.vdot(residual, z)), rz
-            direction = z + (rz / previous) * direction
-        raise RuntimeError(f"the inner CG on B_OO did not reach {tol:g} in 10000 iterations")
+    def outside_product(values):                       # B_OO on the period's values (zero off O)
+        product = spread(values.reshape(lengths))
+        product[~outside] = 0.0
+        return product.reshape(-1)
+
+    def solve_outside(right):                          # B_OO y = right (zero off O), Jacobi PCG
+        y = np.zeros(right.size)
+        inner.append(pcg(outside_product, lambda r: r / diagonal, right.reshape(-1), limit=10000,
+                         tol=tol, solution=y))
+        return y.reshape(lengths)
 
     def inverse(values):
         smoothed = spread(embedded(values))

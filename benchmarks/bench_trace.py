@@ -10,7 +10,8 @@ level: its nodes, the iteration, the residual it started from, the nodes its
 free set changed and holds, the returning nodes it held back (``held``), the
 step α and the restarts of the directions
 (``start``, ``confirmation``, ``renewal``, ``powell``, ``charge on`` / ``charge
-off``: the hole charge taken or left, ``plain``, ``correction dropped``).
+off``: the hole charge taken or left, ``coarse space``: the balancing coarse
+space made, ``plain``, ``correction dropped``).
 A last row per solve (``level`` = ``solve``) gives its fine iterations and
 those of the level below it (``coarse_iterations``, as the solver reports
 them) and the fine level's steps: the fine count also holds the passes that

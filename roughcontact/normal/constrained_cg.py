@@ -21,7 +21,9 @@ preconditioner:
    search direction is the preconditioned gap on F,
    z = M g (M: the Fourier preconditioner of the set with its edge
    correction, :mod:`~roughcontact.operators.preconditioner`, the
-   correction's weights made again whenever F changed), with its mean over F
+   correction's weights made again whenever F changed; on large grids, once
+   the set has settled, in the balancing form around the blocks of the set,
+   :mod:`~roughcontact.operators.balancing`), with its mean over F
    removed so that Σ p stays P, made conjugate to the previous one unless the
    gap is far from orthogonal to the previous z (Powell's test, ``restart``);
 3. the step α = gᵀz / dᵀHd (one FFT product per iteration), then
@@ -75,6 +77,7 @@ from scipy.linalg.blas import daxpy
 
 from ..errors import ConvergenceError, InputError
 from ..operators import passes
+from ..operators.balancing import BALANCING_FROM, BALANCING_SHARE, BalancingSpace
 from ..operators.convolution import dense
 from ..operators.holes import HoleCharge
 from ..operators.preconditioner import EDGE_SHARE, EDGE_UPDATES, EdgeWeights
@@ -270,6 +273,19 @@ class CGSettings:
         scaled by 0.99 or 1.01 where the set changed moved the counts by at
         most 1 (near full contact at 1024² and 2048², the scene at 4096²;
         docs/solver-cost.md, "Nodes that leave and come back").
+    balancing_from
+        Levels of at least this many nodes add the balancing coarse space on
+        BALANCING_PARTS² blocks of the set (:mod:`~roughcontact.operators.balancing`):
+        P = Z E⁻¹ Zᵀ + (I − Z E⁻¹ Wᵀ) M (I − W E⁻¹ Zᵀ) around the preconditioner M,
+        with W = C Z made by one periodic product per block where the hole
+        charge is first taken. Only on a free set of at most BALANCING_SHARE of
+        the grid's nodes, and in solves from a fresh start (a coarse grid's or
+        the punches'), whose free-rotation evaluations share it; a warm start
+        has little left to settle. None: never. The large-grid scene, fine iterations
+        (one rank): 4096² 29 / 30 / 25 → 25 / 25 / 23 on three surfaces (with
+        the space from 2048² up, 2048² 21 → 20 and no faster); near full
+        contact no space is made (docs/solver-cost.md, "A balancing coarse
+        space on blocks of the set").
     """
 
     tol: float = 1e-8
@@ -285,6 +301,7 @@ class CGSettings:
     hole_block: int | None = None
     defer: float = 1.0
     alternate_return: bool = True
+    balancing_from: int | None = BALANCING_FROM
 
     def __post_init__(self):
         if self.preconditioner not in PRECONDITIONERS:
@@ -308,6 +325,11 @@ class CGSettings:
                     and not isinstance(self.hole_block, (bool, np.bool_)) and self.hole_block >= 0)):
             raise InputError("hole_block", f"must be None (the grid's own) or an integer >= 0 (the side "
                                            f"of the blocks of the hole charge, 0: none), got {self.hole_block!r}")
+        if not (self.balancing_from is None
+                or (isinstance(self.balancing_from, (int, np.integer))
+                    and not isinstance(self.balancing_from, (bool, np.bool_)) and self.balancing_from >= 1)):
+            raise InputError("balancing_from", f"must be None (no coarse space) or an integer >= 1 (the nodes "
+                                               f"from which a level takes it), got {self.balancing_from!r}")
 
 
 class ConstrainedCGSolver(NormalSolver):
@@ -357,6 +379,9 @@ class ConstrainedCGSolver(NormalSolver):
         self._basis = None
         self._colours = None                           # the nodes' checkerboard (alternate_return)
         self._fresh = False                            # whether the last start was a coarse grid's or the punches'
+        # the balancing coarse space of the solve under way (None: none), which a free rotation's
+        # evaluations share: made once per solve, let go when it returns
+        self._space: BalancingSpace | None = None
 
     @property
     def description(self) -> str:
@@ -373,6 +398,16 @@ class ConstrainedCGSolver(NormalSolver):
     # ---------------------------------------------------------------- solve
     def _solve(self, rigid, free, loads):
         forces, motion = self._start(rigid, free, loads)
+        # only from a fresh start: a warm one (a sweep's neighbour) has little left to settle, and
+        # W's products would cost what the iterations it saves do
+        self._space = self._coarse_space() if self._fresh else None
+        try:
+            return self._solve_from(rigid, free, loads, forces, motion)
+        finally:
+            self._space = None
+
+    def _solve_from(self, rigid, free, loads, forces, motion):
+        """The solve from the start (``forces``, ``motion``) :meth:`_start` gave."""
         if len(free) <= 1:
             return self._constrained_cg(rigid, free, loads, forces, forces_in_double=not self.coarse, owned=True)
         # free rotation: Newton on (θx, θy), each evaluation a load-controlled solve at fixed θ
@@ -472,6 +507,8 @@ class ConstrainedCGSolver(NormalSolver):
         holes = (HoleCharge(pb.flexibility.layout, pb.comm, settings.edge_share, settings.hole_block)
                  if self._corrected and settings.hole_block != 0 else None)
         taking = False                                 # whether the hole charge is taken now
+        # the solve's balancing coarse space, made where the hole charge is first taken (None: none)
+        coarse_space = self._space if holes is not None else None
         correcting = self._corrected                   # the edge correction in use (dropped where it stalls)
         history: list[float] = []
         tracing = _log.isEnabledFor(logging.DEBUG)    # this rank's choice: nothing collective follows
@@ -577,6 +614,13 @@ class ConstrainedCGSolver(NormalSolver):
                 restarts.append("charge on" if taking else "charge off")
                 if taking:                             # the set moved since its rims were found
                     holes.labelled = False
+                if taking and coarse_space is not None and not coarse_space.made:
+                    # made once, on a sparse set (``CGSettings.balancing_from``)
+                    if pb.allsum(working.size) <= BALANCING_SHARE * pb.size:
+                        coarse_space.make(working, single)
+                        restarts.append("coarse space")
+                    else:
+                        coarse_space = self._space = None
             charge = holes if taking else None         # the hole charge of this iteration (None: none)
             if stale or counts[0] > 0:
                 # the weights of the set as it is now: kept from the last restart while the set
@@ -588,7 +632,8 @@ class ConstrainedCGSolver(NormalSolver):
             if pending is not None:                    # what the deferred far fields may reach
                 square, size = pb.allsum(np.array([g @ g, g.size]))
                 allowed = settings.defer * float(np.sqrt(square / size)) if size else 0.0
-            z, gz = self._direction(g, working, single, edge, load is not None, charge)
+            z, gz = self._direction(g, working, single, edge, load is not None, charge,
+                                    coarse_space if taking else None)
             if not gz > 0.0 and correcting:
                 # the corrected preconditioner is positive definite only as far as C⁻¹'s positive
                 # far entries allow; the plain one always is (never seen to fire in a solve). The
@@ -825,6 +870,15 @@ class ConstrainedCGSolver(NormalSolver):
         """Whether the preconditioner carries the edge correction (the same on every rank)."""
         return self.settings.preconditioner == "fourier" and self.settings.edge_share > 0.0
 
+    def _coarse_space(self) -> BalancingSpace | None:
+        """The balancing coarse space of this level (:mod:`~roughcontact.operators.balancing`), not
+        yet made; None below ``CGSettings.balancing_from`` nodes or without the edge correction."""
+        start = self.settings.balancing_from
+        if start is None or self.problem.size < start or not self._corrected:
+            return None
+        flexibility = self.problem.flexibility
+        return BalancingSpace(flexibility.preconditioner, flexibility.layout, self.problem.comm)
+
     def _edge_weights(self, edges, nodes: np.ndarray, members: np.ndarray, single: bool,
                       correcting: bool, holes: HoleCharge | None) -> np.ndarray | None:
         """The edge correction's weights on the free set, given by ``nodes`` and as the mask
@@ -842,13 +896,19 @@ class ConstrainedCGSolver(NormalSolver):
         return weights
 
     def _direction(self, g: np.ndarray, nodes: np.ndarray, single: bool, edge: np.ndarray | None,
-                   loaded: bool, holes: HoleCharge | None) -> tuple[np.ndarray, float]:
+                   loaded: bool, holes: HoleCharge | None,
+                   coarse: BalancingSpace | None = None) -> tuple[np.ndarray, float]:
         """(z, gᵀz): the preconditioned gap on the free set ``nodes``, less its mean under load
         control (``loaded``) so that Σ p stays P along it; with the edge weights ``edge``, less
-        ``holes``' charge (None: none)."""
-        z = self._precondition(g, nodes, single, edge)
-        if edge is not None and holes is not None:
-            holes.subtract(g, z)
+        ``holes``' charge (None: none); in the balancing form around that preconditioner with the
+        coarse space ``coarse`` where it has been made (None: none)."""
+        def precondition(values):
+            z = self._precondition(values, nodes, single, edge)
+            if edge is not None and holes is not None:
+                holes.subtract(values, z)
+            return z
+
+        z = coarse.apply(g, nodes, precondition) if coarse is not None and coarse.made else precondition(g)
         if loaded:
             z -= _mean(self.problem, z)
         return z, float(self.problem.allsum(g @ z))

@@ -41,6 +41,7 @@ harmless (search directions and the preconditioner of the constrained CG,
 from __future__ import annotations
 
 import os
+from contextlib import contextmanager
 
 import numpy as np
 import scipy.fft as sfft
@@ -310,6 +311,18 @@ class SlabConvolution:
         if self._half is None:
             return None
         return np.concatenate([self._half, self._mirror(self._half)])
+
+    @contextmanager
+    def inverted(self):
+        """Products with 1 / symbol inside the block, the symbol's own after it: a
+        preconditioner that keeps C⁻¹ applies C this way (:mod:`.balancing`). The inverse is made
+        on entry and let go on exit (N/4 values of this rank's columns)."""
+        kept = self._half, self._single_half
+        self._half, self._single_half = 1.0 / kept[0], None
+        try:
+            yield self
+        finally:
+            self._half, self._single_half = kept
 
     def release_symbol(self) -> None:
         """Forget the symbol (an owner that keeps symbols of its own, :mod:`.shear`)."""

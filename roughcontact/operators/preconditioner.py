@@ -62,6 +62,8 @@ hypersingular operator over 3D screens", SAM report 2016-09, ETH Zürich.
 """
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 import numpy as np
 import scipy.fft as sfft
 
@@ -217,6 +219,14 @@ class FourierPreconditioner:
         np.clip(weights, 0.0, EDGE_CAP * self.inverse_diagonal, out=weights)
         weights *= share
         return weights
+
+    @contextmanager
+    def circulant(self):
+        """Inside the block :meth:`apply_nodes` applies C itself, not its inverse: the periodic
+        products the balancing coarse space takes in place of H Z (:mod:`.balancing`); the
+        symbol is inverted once for all the products of the block."""
+        with self.convolution.inverted():
+            yield self
 
     def _restricted(self, values, nodes: np.ndarray, single: bool) -> np.ndarray:
         """[C⁻¹ (values on S, 0 elsewhere)]_S as float64, a new array (collective); the values are

@@ -1,0 +1,167 @@
+"""The balancing coarse space of the settled contact set (roughcontact/operators/balancing.py).
+
+Its W is C Z, the circulant of the Fourier preconditioner applied by the
+preconditioner's own transform with the symbol inverted: for nodes closer than
+half C's period C is H, so on a set inside such a window the product must be the
+Eq. 10 operator's. The balancing form must be symmetric positive definite and
+exact on the coarse space (P W = Z), whatever W is. In a solve it changes the
+path, not the state.
+"""
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from roughcontact.errors import InputError
+from roughcontact.materials import Interface, Material
+from roughcontact.normal import NormalProblem, make_solver
+from roughcontact.normal.constrained_cg import CGSettings
+from roughcontact.operators.balancing import BALANCING_FROM, BalancingSpace
+from roughcontact.operators.flexibility import Flexibility
+from roughcontact.surfaces import Topography, fourier_surface
+
+ROCK = Interface(Material(20e9, 0.2), Material(20e9, 0.2))
+FLAT = Interface(Material(1.0, 0.0))
+SPACING = 1e-4
+
+
+def test_the_circulant_is_the_operator_within_half_its_period():
+    """[C v]_S against H v on S (the padded Eq. 10 product) for a random set inside a 14 × 14
+    window of a 24² grid, whose period (40) is more than twice the window: every pair of nodes is
+    closer than half the period, so C_SS = H_SS. Both in double precision: round-off of the two
+    transforms, 1e-12 of the largest value."""
+    n = 24
+    flex = Flexibility(Topography(np.zeros((n, n)), SPACING), ROCK, MPI.COMM_SELF, kind="fft")
+    try:
+        assert min(flex.preconditioner.convolution.lengths) >= 2 * 14
+        rng = np.random.default_rng(5)
+        window = np.zeros((n, n), dtype=bool)
+        window[4:18, 6:20] = rng.random((14, 14)) < 0.4
+        nodes = np.flatnonzero(window)
+        values = rng.standard_normal(nodes.size)
+        field = np.zeros(n * n)
+        field[nodes] = values
+        expected = flex.product(field)[nodes]
+        with flex.preconditioner.circulant() as circulant:
+            got = circulant.apply_nodes(values, nodes)
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+    finally:
+        flex.destroy()
+
+
+def test_the_symbol_comes_back_after_the_circulant():
+    """A preconditioner product before and after a circulant product is the same, bit for bit."""
+    n = 24
+    flex = Flexibility(Topography(np.zeros((n, n)), SPACING), ROCK, MPI.COMM_SELF, kind="fft")
+    try:
+        nodes = np.arange(0, n * n, 3)
+        values = np.random.default_rng(1).standard_normal(nodes.size)
+        before = flex.precondition_nodes(values, nodes, single=True)
+        with flex.preconditioner.circulant() as circulant:
+            circulant.apply_nodes(values, nodes, single=True)
+        np.testing.assert_array_equal(flex.precondition_nodes(values, nodes, single=True), before)
+    finally:
+        flex.destroy()
+
+
+@pytest.mark.parametrize("density", [0.05, 0.3])
+def test_the_balancing_form_is_symmetric_positive_definite_and_exact_on_the_coarse_space(density):
+    """P = Z E⁻¹ Zᵀ + (I − Z E⁻¹ Wᵀ) M (I − W E⁻¹ Zᵀ) as a dense matrix on a random set of 32²
+    (blocks of 16, four columns of Z): symmetric, positive definite, and P W = Z, the identity the
+    form is built on (E = Zᵀ W). W and the products with it are float32 (the space keeps W in
+    single precision): 1e-5 of the largest entry."""
+    n = 32
+    flex = Flexibility(Topography(np.zeros((n, n)), SPACING), ROCK, MPI.COMM_SELF, kind="fft")
+    try:
+        nodes = np.flatnonzero(np.random.default_rng(7).random(n * n) < density)
+        space = BalancingSpace(flex.preconditioner, flex.layout, MPI.COMM_SELF, parts=2)
+        space.make(nodes, single=False)
+        assert space.count == 4
+
+        def precondition(values):
+            return flex.precondition_nodes(values, nodes)
+
+        columns = [space.apply(e, nodes, precondition) for e in np.eye(nodes.size)]
+        dense = np.array(columns).T
+        scale = np.abs(dense).max()
+        assert np.abs(dense - dense.T).max() <= 1e-5 * scale
+        assert np.linalg.eigvalsh(0.5 * (dense + dense.T))[0] > 0.0
+        rows, cols = np.divmod(nodes, n)
+        block = (rows // 16) * 2 + cols // 16
+        for j in range(4):
+            z = (block == j).astype(float)
+            np.testing.assert_allclose(space.apply(space.W[:, j].astype(float), nodes, precondition), z,
+                                       rtol=0, atol=1e-5)
+    finally:
+        flex.destroy()
+
+
+def test_a_solve_with_the_coarse_space_reaches_the_same_state_on_any_rank_count(comm, caplog):
+    """The large-grid scene's kind of surface at 128² (about 2 % of the nodes in contact, one
+    coarse level) with the coarse space from the first grid up: the trace shows it made on both
+    levels, and the state is the one without it to 1e-6 of the largest force (the CG's tolerance
+    of 1e-8 times the condition of H on the set, test_normal_cg.py), on any rank count."""
+    s = 1.0 / 128
+    surface = fourier_surface(128, s, hurst=0.8, rms_slope=1.0, rolloff_wavelength=1.0,
+                              short_cutoff_wavelength=8 * s, periodic=False, seed=1)
+    problem = NormalProblem(surface, FLAT, comm, operator="fft")
+    try:
+        load = 0.01 * problem.topography.nominal_area
+
+        def solve(settings):
+            with make_solver(problem, "cg", settings=settings) as solver:
+                return solver.solve_load(load, rotation=(0.0, 0.0))
+
+        without = solve(CGSettings(balancing_from=None))
+        with caplog.at_level(logging.DEBUG, logger="roughcontact.normal.constrained_cg"):
+            balanced = solve(CGSettings(balancing_from=1))
+    finally:
+        problem.destroy()
+    made = [record.cg_step["nodes"] for record in caplog.records
+            if hasattr(record, "cg_step") and "coarse space" in record.cg_step["restart"]]
+    assert made                                         # each rank traces its own steps
+    assert without.contact_fraction < 0.25
+    scale = without.force.max()
+    np.testing.assert_allclose(balanced.force, without.force, rtol=0, atol=1e-6 * scale)
+    assert balanced.residual <= CGSettings().tol
+
+
+def test_balancing_from_is_checked():
+    for bad in (0, -1, 2.5, True):
+        with pytest.raises(InputError, match="balancing_from"):
+            CGSettings(balancing_from=bad)
+    assert CGSettings(balancing_from=None).balancing_from is None
+    assert CGSettings().balancing_from == BALANCING_FROM == 4096 * 4096
+
+
+def test_the_space_is_made_once_per_fresh_solve(comm, caplog):
+    """With the rotation free, the Newton's evaluations share the space of their solve: the fine
+    level makes it once. A warm start (the next load of a sweep, from the last solution) makes
+    none: it has little left to settle."""
+    s = 1.0 / 128
+    surface = fourier_surface(128, s, hurst=0.8, rms_slope=1.0, rolloff_wavelength=1.0,
+                              short_cutoff_wavelength=8 * s, periodic=False, seed=1)
+    problem = NormalProblem(surface, FLAT, comm, operator="fft")
+    load = 0.01 * problem.topography.nominal_area
+
+    def made(records):
+        return [r.cg_step["nodes"] for r in records if hasattr(r, "cg_step") and "coarse space" in r.cg_step["restart"]]
+
+    try:
+        with make_solver(problem, "cg", settings=CGSettings(balancing_from=1)) as solver:
+            with caplog.at_level(logging.DEBUG, logger="roughcontact.normal.constrained_cg"):
+                free = solver.solve_load(load)
+                fresh = made(caplog.records)
+                caplog.clear()
+                warm = solver.solve_load(1.05 * load)
+                again = made(caplog.records)
+        nodes = problem.size
+    finally:
+        problem.destroy()
+    assert free.outer_iterations > 1                    # the Newton took several evaluations
+    assert fresh.count(nodes) == 1
+    assert again == []
+    assert warm.residual <= CGSettings().tol

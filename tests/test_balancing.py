@@ -53,7 +53,8 @@ def test_the_circulant_is_the_operator_within_half_its_period():
 
 
 def test_the_symbol_comes_back_after_the_circulant():
-    """A preconditioner product before and after a circulant product is the same, bit for bit."""
+    """Inside the block the single-precision product is C's (the double one to float32's 1e-5 of
+    the largest value), not C⁻¹'s; after it a preconditioner product is what it was, bit for bit."""
     n = 24
     flex = Flexibility(Topography(np.zeros((n, n)), SPACING), ROCK, MPI.COMM_SELF, kind="fft")
     try:
@@ -61,10 +62,108 @@ def test_the_symbol_comes_back_after_the_circulant():
         values = np.random.default_rng(1).standard_normal(nodes.size)
         before = flex.precondition_nodes(values, nodes, single=True)
         with flex.preconditioner.circulant() as circulant:
-            circulant.apply_nodes(values, nodes, single=True)
+            double = circulant.apply_nodes(values, nodes)
+            single = circulant.apply_nodes(values, nodes, single=True)
+        scale = np.abs(double).max()
+        np.testing.assert_allclose(single, double, rtol=0, atol=1e-5 * scale)
+        assert np.abs(before - double).max() > 0.5 * scale          # C⁻¹ and C are far apart
         np.testing.assert_array_equal(flex.precondition_nodes(values, nodes, single=True), before)
     finally:
         flex.destroy()
+
+
+def balanced_reference(flex, space, nodes, made_nodes, n, parts):
+    """P as a dense matrix on the free set ``nodes``, from its definition: Z the nodes of the set
+    in each block that held nodes when the space was made (``made_nodes``), W's rows there and
+    zero rows for the nodes that entered since, E = (Zᵀ W + Wᵀ Z) / 2 with a unit diagonal for a
+    block none of whose nodes is left, M the dense preconditioner on the set."""
+    rows, cols = np.divmod(nodes, n)
+    block = (rows // (n // parts)) * parts + cols // (n // parts)
+    made_rows, made_cols = np.divmod(made_nodes, n)
+    present = np.unique((made_rows // (n // parts)) * parts + made_cols // (n // parts))
+    kept = np.isin(nodes, made_nodes)
+    Z = np.zeros((nodes.size, present.size))
+    Z[kept, np.searchsorted(present, block[kept])] = 1.0
+    W = np.zeros((nodes.size, present.size))
+    W[kept] = space.W[np.searchsorted(made_nodes, nodes[kept])]
+    E = Z.T @ W
+    E = 0.5 * (E + E.T)
+    empty = ~Z.any(axis=0)
+    E[empty, :] = E[:, empty] = 0.0
+    E[empty, empty] = 1.0
+    M = np.array([flex.precondition_nodes(e, nodes) for e in np.eye(nodes.size)]).T
+    Ei = np.linalg.inv(E)
+    eye = np.eye(nodes.size)
+    return Z @ Ei @ Z.T + (eye - Z @ Ei @ W.T) @ M @ (eye - W @ Ei @ Z.T), kept
+
+
+def test_the_form_on_a_set_that_moved_is_its_definition():
+    """After the set changed (every node of one block left, a few others left, new nodes entered)
+    P is the balancing form with Z and W on the nodes kept, zero rows for the new ones and E
+    taken again on the set (:func:`balanced_reference`): to float32's 1e-5 (W is float32); it is
+    symmetric positive definite, and a new node alone gets M's value (no column of Z)."""
+    n, parts = 32, 2
+    flex = Flexibility(Topography(np.zeros((n, n)), SPACING), ROCK, MPI.COMM_SELF, kind="fft")
+    try:
+        rng = np.random.default_rng(11)
+        members = rng.random(n * n) < 0.1
+        made_nodes = np.flatnonzero(members)
+        space = BalancingSpace(flex.preconditioner, flex.layout, MPI.COMM_SELF, parts=parts)
+        space.make(made_nodes, single=False)
+        assert space.count == 4
+        now = members.copy()
+        grid = now.reshape(n, n)
+        grid[:16, :16] = False                                       # block 0 empties
+        now[made_nodes[rng.random(made_nodes.size) < 0.2]] = False   # a fifth of the rest leave
+        entering = np.flatnonzero(~members & (rng.random(n * n) < 0.03))
+        now[entering] = True
+        nodes = np.flatnonzero(now)
+
+        def precondition(values):
+            return flex.precondition_nodes(values, nodes)
+
+        dense = np.array([space.apply(e, nodes, precondition) for e in np.eye(nodes.size)]).T
+        reference, kept = balanced_reference(flex, space, nodes, made_nodes, n, parts)
+        scale = np.abs(reference).max()
+        np.testing.assert_allclose(dense, reference, rtol=0, atol=1e-5 * scale)
+        assert np.abs(dense - dense.T).max() <= 1e-5 * scale
+        assert np.linalg.eigvalsh(0.5 * (dense + dense.T))[0] > 0.0
+        assert (~kept).sum() == entering.size
+    finally:
+        flex.destroy()
+
+
+@pytest.mark.parametrize("where", ["everywhere", "first rows"])
+def test_the_space_is_the_same_on_any_rank_count(comm, where):
+    """A space made on this communicator's slabs (the nodes of each rank, the blocks counted over
+    all) applies P as the same space made on one rank over the whole set: the blocks come from the
+    global rows. With the set on the first rows only, a second rank holds none of it. Tolerance:
+    float32 W, 1e-5 of the largest value."""
+    n = 32
+    rng = np.random.default_rng(4)
+    members = rng.random(n * n) < 0.15
+    if where == "first rows":
+        members.reshape(n, n)[8:] = False
+    g = rng.standard_normal(n * n)
+    spread = Flexibility(Topography(np.zeros((n, n)), SPACING), ROCK, comm, kind="fft")
+    whole = Flexibility(Topography(np.zeros((n, n)), SPACING), ROCK, MPI.COMM_SELF, kind="fft")
+    try:
+        r0, r1 = spread.layout.rows
+        local = np.flatnonzero(members[r0 * n:r1 * n])
+        mine = BalancingSpace(spread.preconditioner, spread.layout, comm, parts=2)
+        mine.make(local, single=False)
+        z = mine.apply(g[r0 * n:r1 * n][local], local, lambda v: spread.precondition_nodes(v, local))
+        every = np.flatnonzero(members)
+        one = BalancingSpace(whole.preconditioner, whole.layout, MPI.COMM_SELF, parts=2)
+        one.make(every, single=False)
+        expected = one.apply(g[every], every, lambda v: whole.precondition_nodes(v, every))
+        assert mine.count == one.count
+        at = np.searchsorted(every, r0 * n + local)
+        scale = np.abs(expected).max()
+        np.testing.assert_allclose(z, expected[at], rtol=0, atol=1e-5 * scale)
+    finally:
+        spread.destroy()
+        whole.destroy()
 
 
 @pytest.mark.parametrize("density", [0.05, 0.3])
@@ -99,11 +198,12 @@ def test_the_balancing_form_is_symmetric_positive_definite_and_exact_on_the_coar
         flex.destroy()
 
 
-def test_a_solve_with_the_coarse_space_reaches_the_same_state_on_any_rank_count(comm, caplog):
-    """The large-grid scene's kind of surface at 128² (about 2 % of the nodes in contact, one
-    coarse level) with the coarse space from the first grid up: the trace shows it made on both
-    levels, and the state is the one without it to 1e-6 of the largest force (the CG's tolerance
-    of 1e-8 times the condition of H on the set, test_normal_cg.py), on any rank count."""
+def test_a_solve_with_the_coarse_space_reaches_the_same_state_on_any_rank_count(comm, caplog, monkeypatch):
+    """The large-grid scene's kind of surface at 128² (about 2 % of the nodes in contact) with the
+    coarse space from the first grid up: the trace shows it made once on the fine level, the
+    directions go through it, and the state is the one without it to 1e-6 of the largest force
+    (the CG's tolerance of 1e-8 times the condition of H on the set, test_normal_cg.py), on any
+    rank count."""
     s = 1.0 / 128
     surface = fourier_surface(128, s, hurst=0.8, rms_slope=1.0, rolloff_wavelength=1.0,
                               short_cutoff_wavelength=8 * s, periodic=False, seed=1)
@@ -116,13 +216,23 @@ def test_a_solve_with_the_coarse_space_reaches_the_same_state_on_any_rank_count(
                 return solver.solve_load(load, rotation=(0.0, 0.0))
 
         without = solve(CGSettings(balancing_from=None))
+        applied = []
+        original = BalancingSpace.apply
+
+        def counted(self, *args):
+            applied.append(self.count)
+            return original(self, *args)
+
+        monkeypatch.setattr(BalancingSpace, "apply", counted)
         with caplog.at_level(logging.DEBUG, logger="roughcontact.normal.constrained_cg"):
             balanced = solve(CGSettings(balancing_from=1))
+        nodes = problem.size
     finally:
         problem.destroy()
     made = [record.cg_step["nodes"] for record in caplog.records
             if hasattr(record, "cg_step") and "coarse space" in record.cg_step["restart"]]
-    assert made                                         # each rank traces its own steps
+    assert made.count(nodes) == 1                       # each rank's trace: made once on the fine level
+    assert applied and min(applied) >= 1                # and the directions went through it
     assert without.contact_fraction < 0.25
     scale = without.force.max()
     np.testing.assert_allclose(balanced.force, without.force, rtol=0, atol=1e-6 * scale)
@@ -158,10 +268,12 @@ def test_the_space_is_made_once_per_fresh_solve(comm, caplog):
                 caplog.clear()
                 warm = solver.solve_load(1.05 * load)
                 again = made(caplog.records)
+                warm_charged = any(hasattr(r, "cg_step") and "charge on" in r.cg_step["restart"]
+                                   for r in caplog.records)
         nodes = problem.size
     finally:
         problem.destroy()
     assert free.outer_iterations > 1                    # the Newton took several evaluations
     assert fresh.count(nodes) == 1
-    assert again == []
+    assert again == [] and warm_charged                 # the warm solve took the hole charge, no space
     assert warm.residual <= CGSettings().tol

@@ -281,7 +281,8 @@ class CGSettings:
         charge is first taken. Only on a free set of at most BALANCING_SHARE of
         the grid's nodes, and in solves from a fresh start (a coarse grid's or
         the punches'), whose free-rotation evaluations share it; a warm start
-        has little left to settle. None: never. The large-grid scene, fine iterations
+        has little left to settle. Only with the hole charge (``hole_block`` not
+        0) and the edge correction. None: never. The large-grid scene, fine iterations
         (one rank): 4096² 29 / 30 / 25 → 25 / 25 / 23 on three surfaces (with
         the space from 2048² up, 2048² 21 → 20 and no faster); near full
         contact no space is made (docs/solver-cost.md, "A balancing coarse
@@ -616,7 +617,7 @@ class ConstrainedCGSolver(NormalSolver):
                     holes.labelled = False
                 if taking and coarse_space is not None and not coarse_space.made:
                     # made once, on a sparse set (``CGSettings.balancing_from``)
-                    if pb.allsum(working.size) <= BALANCING_SHARE * pb.size:
+                    if counts[1] <= BALANCING_SHARE * pb.size:        # the free set over all ranks
                         coarse_space.make(working, single)
                         restarts.append("coarse space")
                     else:

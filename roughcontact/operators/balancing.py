@@ -46,9 +46,11 @@ W = H Z, made exactly by padded products, took 24 fine iterations at 4096²
 balancing coarse space on blocks of the set".
 
 The space is kept only where the free set that makes it is sparse (at most
-BALANCING_SHARE of the grid's nodes). W holds k float32 values per node of the
-set, and a set of N / 4 nodes then costs at most 4 k / 4 = 16 B per node of the
-grid.
+BALANCING_SHARE = 1/8 of the grid's nodes). W holds k ≤ 16 float32 values per
+node of that set. Once the set has changed, its rows are copied for the set of
+the moment, as many again. Together they are at most 2 × 64 / 8 = 16 B per node
+of the grid; on the large-grid scene at 4096² (1.8 % of the nodes) they are
+2.4 B per node.
 """
 from __future__ import annotations
 
@@ -62,8 +64,10 @@ BALANCING_PARTS = 4
 #: 21 on the large-grid scene, and the solve took 6.14 s against 5.97 (medians of 6, alternated);
 #: at 1024² none
 BALANCING_FROM = 4096 * 4096
-#: the largest free set (a share of the grid's nodes) on which the coarse space is made
-BALANCING_SHARE = 0.25
+#: the largest free set (a share of the grid's nodes) on which the coarse space is made: W and its
+#: rows on a later set are k float32 values per node of the set each, at most 16 B per node of the
+#: grid together (the large-grid scene's sets hold 2 % of it; near full contact 86 %)
+BALANCING_SHARE = 0.125
 
 
 class BalancingSpace:
@@ -98,12 +102,13 @@ class BalancingSpace:
         present = np.flatnonzero(counts)
         lookup = np.full(self.parts ** 2, -1, dtype=np.intp)
         lookup[present] = np.arange(present.size)
-        self.nodes, self.column, self.count = nodes.copy(), lookup[block], int(present.size)
-        self.W = np.empty((nodes.size, self.count), dtype=np.float32)
+        column, count = lookup[block], int(present.size)
+        W = np.empty((nodes.size, count), dtype=np.float32)
         with self.preconditioner.circulant() as circulant:
-            for j in range(self.count):
-                self.W[:, j] = circulant.apply_nodes((self.column == j).astype(float), nodes, single)
-        self._cached = None
+            for j in range(count):
+                W[:, j] = circulant.apply_nodes((column == j).astype(float), nodes, single)
+        self.column, self.count, self.W, self._cached = column, count, W, None
+        self.nodes = nodes.copy()                       # last: made only once W is whole
 
     def apply(self, g: np.ndarray, nodes: np.ndarray, precondition) -> np.ndarray:
         """P g on the free set given by this rank's node indices ``nodes``, for the solver's
@@ -138,6 +143,7 @@ class BalancingSpace:
             np.array_equal(self._cached[0], nodes)
         if self.comm.allreduce(int(not kept)) == 0:     # the same on every rank: E is a reduction
             return self._cached[1:]
+        self._cached = None                             # its rows let go before the new ones are made
         if self.nodes.size == nodes.size and np.array_equal(self.nodes, nodes):
             column, rows = self.column, self.W
         else:
@@ -153,7 +159,17 @@ class BalancingSpace:
         matrix[empty, empty] = 1.0
         try:
             factor = cho_factor(matrix)
-        except LinAlgError:
+        except (LinAlgError, ValueError):              # not positive definite, or not finite
+            factor = None
+        # E is the same on every rank, but the factor's success is agreed on: a rank that went
+        # without the coarse space alone would leave the others in its reductions
+        if not self.comm.allreduce(int(factor is not None), op=_min()):
             factor = None
         self._cached = (nodes.copy(), column, rows, factor)
         return column, rows, factor
+
+
+def _min():
+    from mpi4py import MPI
+
+    return MPI.MIN

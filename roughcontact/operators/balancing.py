@@ -50,7 +50,7 @@ BALANCING_SHARE = 1/8 of the grid's nodes). W holds k ≤ 16 float32 values per
 node of that set. Once the set has changed, its rows are copied for the set of
 the moment, as many again. Together they are at most 2 × 64 / 8 = 16 B per node
 of the grid; on the large-grid scene at 4096² (1.8 % of the nodes) they are
-2.4 B per node.
+at most 2.4 B per node.
 """
 from __future__ import annotations
 

@@ -902,14 +902,14 @@ class ConstrainedCGSolver(NormalSolver):
         """(z, gᵀz): the preconditioned gap on the free set ``nodes``, less its mean under load
         control (``loaded``) so that Σ p stays P along it; with the edge weights ``edge``, less
         ``holes``' charge (None: none); in the balancing form around that preconditioner with the
-        coarse space ``coarse`` where it has been made (None: none)."""
+        coarse space ``coarse``, made (None: none)."""
         def precondition(values):
             z = self._precondition(values, nodes, single, edge)
             if edge is not None and holes is not None:
                 holes.subtract(values, z)
             return z
 
-        z = coarse.apply(g, nodes, precondition) if coarse is not None and coarse.made else precondition(g)
+        z = precondition(g) if coarse is None else coarse.apply(g, nodes, precondition)
         if loaded:
             z -= _mean(self.problem, z)
         return z, float(self.problem.allsum(g @ z))

@@ -54,6 +54,8 @@ at most 2.4 B per node.
 """
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 from scipy.linalg import LinAlgError, cho_factor, cho_solve
 
@@ -69,6 +71,8 @@ BALANCING_FROM = 4096 * 4096
 #: grid together (the large-grid scene's sets hold 2 % of it; near full contact 86 %)
 BALANCING_SHARE = 0.125
 
+_log = logging.getLogger(__name__)
+
 
 class BalancingSpace:
     """The balancing coarse space of a free set on the layout of a
@@ -83,6 +87,7 @@ class BalancingSpace:
         self.W = np.zeros((0, 0), dtype=np.float32)     # C Z on those nodes
         self.count = 0                                  # columns of Z (over all ranks)
         self._cached: tuple | None = None               # the last free set's rows, and E's factor
+        self._warned = False                            # whether a set without E's factor was reported
 
     @property
     def made(self) -> bool:
@@ -130,10 +135,10 @@ class BalancingSpace:
         """Zᵀ values over all ranks for the columns of ``values`` (one row per node of the set),
         (count, columns) in float64: one reduction."""
         valid = column >= 0
-        local = np.stack([np.bincount(column[valid], weights=values[valid, j], minlength=self.count)
-                          for j in range(values.shape[1])], axis=1) if values.shape[1] else \
-            np.zeros((self.count, 0))
-        return self.comm.allreduce(local)
+        width = values.shape[1]
+        index = (column[valid][:, None] * width + np.arange(width)).ravel()
+        local = np.bincount(index, weights=values[valid].ravel(), minlength=self.count * width)
+        return self.comm.allreduce(local.reshape(self.count, width))
 
     def _rows(self, nodes: np.ndarray):
         """(the column of Z of each node of the free set, −1 where it has none; W's rows there, a
@@ -147,14 +152,16 @@ class BalancingSpace:
         if self.nodes.size == nodes.size and np.array_equal(self.nodes, nodes):
             column, rows = self.column, self.W
         else:
-            place = np.minimum(np.searchsorted(self.nodes, nodes), max(self.nodes.size - 1, 0))
-            valid = self.nodes[place] == nodes if self.nodes.size else np.zeros(nodes.size, dtype=bool)
-            column = np.where(valid, self.column[place] if self.nodes.size else -1, -1)
+            valid = np.isin(nodes, self.nodes, assume_unique=True)
+            place = np.searchsorted(self.nodes, nodes[valid])
+            column = np.full(nodes.size, -1, dtype=np.intp)
+            column[valid] = self.column[place]
             rows = np.zeros((nodes.size, self.count), dtype=np.float32)
-            rows[valid] = self.W[place[valid]]
+            rows[valid] = self.W[place]
         sums = self._block_sums(column, rows)
         matrix = 0.5 * (sums + sums.T)
-        empty = np.diag(matrix) <= 0.0                  # a block whose nodes all left the set
+        # a block whose nodes all left the set: its column of Z is zero, and E's row and column too
+        empty = self.comm.allreduce(np.bincount(column[column >= 0], minlength=self.count)) == 0
         matrix[empty, :] = matrix[:, empty] = 0.0
         matrix[empty, empty] = 1.0
         try:
@@ -163,13 +170,10 @@ class BalancingSpace:
             factor = None
         # E is the same on every rank, but the factor's success is agreed on: a rank that went
         # without the coarse space alone would leave the others in its reductions
-        if not self.comm.allreduce(int(factor is not None), op=_min()):
-            factor = None
+        if self.comm.allreduce(int(factor is None)):
+            if not self._warned:                        # once per space: it may recur as the set moves
+                _log.warning("the balancing coarse space's E = Zᵀ W is not positive definite on this "
+                             "free set: the preconditioner goes on without it while the set stays")
+            factor, self._warned = None, True
         self._cached = (nodes.copy(), column, rows, factor)
         return column, rows, factor
-
-
-def _min():
-    from mpi4py import MPI
-
-    return MPI.MIN

@@ -321,16 +321,18 @@ class CGSettings:
                                            f"isolated nodes without a scaling), got {self.edge_share!r}")
         if not isinstance(self.alternate_return, (bool, np.bool_)):
             raise InputError("alternate_return", f"must be True or False, got {self.alternate_return!r}")
-        if not (self.hole_block is None
-                or (isinstance(self.hole_block, (int, np.integer))
-                    and not isinstance(self.hole_block, (bool, np.bool_)) and self.hole_block >= 0)):
-            raise InputError("hole_block", f"must be None (the grid's own) or an integer >= 0 (the side "
-                                           f"of the blocks of the hole charge, 0: none), got {self.hole_block!r}")
-        if not (self.balancing_from is None
-                or (isinstance(self.balancing_from, (int, np.integer))
-                    and not isinstance(self.balancing_from, (bool, np.bool_)) and self.balancing_from >= 1)):
-            raise InputError("balancing_from", f"must be None (no coarse space) or an integer >= 1 (the nodes "
-                                               f"from which a level takes it), got {self.balancing_from!r}")
+        _check_optional_count("hole_block", self.hole_block, 0, "the grid's own",
+                              "the side of the blocks of the hole charge, 0: none")
+        _check_optional_count("balancing_from", self.balancing_from, 1, "no coarse space",
+                              "the nodes from which a level takes it")
+
+
+def _check_optional_count(name: str, value, minimum: int, none: str, meaning: str) -> None:
+    """``value`` is None (``none``) or an integer ≥ ``minimum`` (``meaning``), not a bool."""
+    if value is None or (isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
+                         and value >= minimum):
+        return
+    raise InputError(name, f"must be None ({none}) or an integer >= {minimum} ({meaning}), got {value!r}")
 
 
 class ConstrainedCGSolver(NormalSolver):

@@ -144,12 +144,11 @@ class BalancingSpace:
         """(the column of Z of each node of the free set, −1 where it has none; W's rows there, a
         zero row where it has none; the Cholesky factor of E = Zᵀ W on the set), kept while the
         set stays the same."""
-        kept = self._cached is not None and self._cached[0].size == nodes.size and \
-            np.array_equal(self._cached[0], nodes)
+        kept = self._cached is not None and np.array_equal(self._cached[0], nodes)   # shapes first
         if self.comm.allreduce(int(not kept)) == 0:     # the same on every rank: E is a reduction
             return self._cached[1:]
         self._cached = None                             # its rows let go before the new ones are made
-        if self.nodes.size == nodes.size and np.array_equal(self.nodes, nodes):
+        if np.array_equal(self.nodes, nodes):
             column, rows = self.column, self.W
         else:
             valid = np.isin(nodes, self.nodes, assume_unique=True)

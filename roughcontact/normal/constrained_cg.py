@@ -82,6 +82,7 @@ from ..operators.convolution import dense
 from ..operators.holes import HoleCharge
 from ..operators.preconditioner import EDGE_SHARE, EDGE_UPDATES, EdgeWeights
 from .nested import COARSE_TOL, NestedStart
+from .primal_dual import PRIMAL_DUAL_SHARE, settle
 from .problem import NormalProblem
 from .result import ContactState
 from .rigid_motion import newton_on_motion
@@ -108,6 +109,9 @@ DEFER_FROM = 512 * 512
 #: that 1e-3 of those residuals, the inexact Newton's rule for the states it steps from; the
 #: solver's tol took 22 and 19 CG iterations there, 1e-5 14 and 12, with the same Newton steps
 FIRST_TOL = 1e-5
+#: the levels (nodes) from which a fresh start near full contact settles its set by the primal–dual
+#: active set (``CGSettings.primal_dual_from``)
+PRIMAL_DUAL_FROM = 512 * 512
 
 
 @dataclass(frozen=True)
@@ -287,6 +291,17 @@ class CGSettings:
         the space from 2048² up, 2048² 21 → 20 and no faster); near full
         contact no space is made (docs/solver-cost.md, "A balancing coarse
         space on blocks of the set").
+    primal_dual_from
+        Levels of at least this many nodes whose fresh start (a coarse
+        grid's or the punches') holds at least PRIMAL_DUAL_SHARE of their
+        nodes in contact settle the set by the primal–dual active set first
+        (:mod:`.primal_dual`): each set held while the CG solves on it to a
+        share of its residual, then moved at once; where that gives up
+        (a set cycling) the constrained CG goes on from its forces. With the
+        rotation fixed only: a free rotation's evaluations are warm. None:
+        never. Near full contact (Δ = 2.5, 1 E*), one rank, the two
+        alternated in one process: docs/solver-cost.md, "The contact set
+        settled by a primal–dual active set".
     """
 
     tol: float = 1e-8
@@ -303,6 +318,7 @@ class CGSettings:
     defer: float = 1.0
     alternate_return: bool = True
     balancing_from: int | None = BALANCING_FROM
+    primal_dual_from: int | None = PRIMAL_DUAL_FROM
 
     def __post_init__(self):
         if self.preconditioner not in PRECONDITIONERS:
@@ -325,6 +341,8 @@ class CGSettings:
                               "the side of the blocks of the hole charge, 0: none")
         _check_optional_count("balancing_from", self.balancing_from, 1, "no coarse space",
                               "the nodes from which a level takes it")
+        _check_optional_count("primal_dual_from", self.primal_dual_from, 1, "never",
+                              "the nodes from which a level near full contact takes it")
 
 
 def _check_optional_count(name: str, value, minimum: int, none: str, meaning: str) -> None:
@@ -412,7 +430,17 @@ class ConstrainedCGSolver(NormalSolver):
     def _solve_from(self, rigid, free, loads, forces, motion):
         """The solve from the start (``forces``, ``motion``) :meth:`_start` gave."""
         if len(free) <= 1:
-            return self._constrained_cg(rigid, free, loads, forces, forces_in_double=not self.coarse, owned=True)
+            settled = None
+            if self._near_full(forces):
+                settled = self._primal_dual(rigid, free, loads, forces)
+                if settled[0] is not None:
+                    return settled[0]
+                forces = settled[1]
+            state, rigid = self._constrained_cg(rigid, free, loads, forces, forces_in_double=not self.coarse,
+                                                owned=True)
+            if settled is not None:                # the products the primal-dual steps took count too
+                state = state._replace(linear=state.linear + settled[2])
+            return state, rigid
         # free rotation: Newton on (θx, θy), each evaluation a load-controlled solve at fixed θ
         rigid[free] = motion[free]
         state = {"forces": forces}
@@ -446,6 +474,55 @@ class ConstrainedCGSolver(NormalSolver):
                                 load_tol=self.settings.load_tol, max_newton=self.settings.max_newton,
                                 resolution=resolution)
 
+    def _near_full(self, forces: np.ndarray) -> bool:
+        """Whether this solve settles its set by the primal–dual active set first
+        (``CGSettings.primal_dual_from``): a fresh start on a level of that many nodes or more
+        with at least PRIMAL_DUAL_SHARE of them in contact (the same answer on every rank)."""
+        start = self.settings.primal_dual_from
+        pb = self.problem
+        return (start is not None and self._fresh and pb.size >= start
+                and float(pb.allsum(np.count_nonzero(forces > 0.0))) >= PRIMAL_DUAL_SHARE * pb.size)
+
+    def _primal_dual(self, rigid, free, loads, forces):
+        """The primal–dual active set (:mod:`.primal_dual`) from the start ``forces`` with the
+        rotation fixed: ((state, rigid), None, products) where it met the tolerance, else (None,
+        its forces clipped at zero for the constrained CG, the products it took)."""
+        pb, settings = self.problem, self.settings
+        rigid, w, load = self._imposed(rigid, free, loads)
+        edges = EdgeWeights(pb.flexibility.preconditioner, settings.edge_share) if self._corrected else None
+        holes = (HoleCharge(pb.flexibility.layout, pb.comm, settings.edge_share, settings.hole_block)
+                 if self._corrected and settings.hole_block != 0 else None)
+
+        def direction(g, nodes, edge, single):
+            return self._direction(g, nodes, single, edge, load is not None, holes)
+
+        def weights(nodes, members, single):
+            return self._edge_weights(edges, nodes, members, single, self._corrected, holes)
+
+        trace = None
+        if _log.isEnabledFor(logging.DEBUG):
+            def trace(step, residual, changed, size, alpha, restart):
+                restarts = ["primal-dual"] + ([restart] if restart else [])
+                _log.debug("n %d primal-dual step %d residual %.3e changed %d free %d alpha %.3g restart %s",
+                           pb.size, step, residual, changed, size, alpha, "+".join(restarts),
+                           extra={"cg_step": {"nodes": int(pb.size), "iteration": step, "residual": residual,
+                                              "changed": changed, "free": size, "held": 0, "alpha": float(alpha),
+                                              "restart": restarts}})
+        settled = settle(pb, forces, w, load, settings.tol, settings.precision == "mixed", direction, weights, trace)
+        if not settled.converged:
+            return None, settled.forces, settled.products
+        rigid[free] = settled.approach
+        state = self._state(settled.forces, settled.gap, settled.products, settled.history[-1], settled.history)
+        return (state._replace(outer=len(settled.history)), rigid), None, settled.products
+
+    def _imposed(self, rigid, free, loads):
+        """(r with the free components zeroed, w_fixed = C r − gap0 or None where that is −gap0,
+        P or None): what a solve with the components ``free`` found from ``loads`` imposes."""
+        rigid = rigid.copy()
+        rigid[free] = 0.0
+        return rigid, (self.problem.interpenetration(rigid) if rigid.any() else None), \
+            (loads[0] if free else None)
+
     def _predicted(self, motion0: np.ndarray, forces0: np.ndarray, motion: np.ndarray) -> np.ndarray:
         """The start of an evaluation at ``motion``: the forces of the state (motion0, forces0)
         moved along the Hessian's solutions on its contact set S, p0 + X Δθ (X the forces'
@@ -467,19 +544,16 @@ class ConstrainedCGSolver(NormalSolver):
         ``owned``: ``forces`` are the solve's own to change (a fresh start), not copied first."""
         pb, settings = self.problem, self.settings
         tol = settings.tol if tol is None else tol
-        rigid = rigid.copy()
-        rigid[free] = 0.0
         # w_fixed (δz left out under load control); None where the imposed motion is zero and w
         # is −gap0, which the problem holds already: the iteration adds gap0 instead of
         # subtracting a copy of w (8 B per node less, the same bits)
-        w = pb.interpenetration(rigid) if rigid.any() else None
-        load = loads[0] if free else None
+        rigid, w, load = self._imposed(rigid, free, loads)
         w_scale = pb.interpenetration_scale(pb.gap0 if w is None else w)
         single = settings.precision == "mixed"
         if not owned:
             forces = forces.copy()
         if load is not None:
-            forces *= _load_scale(pb, forces, load)
+            forces *= pb.load_scale(forces, load)
         # H p of the forces themselves in double, but on a coarse level at a loose tolerance
         # (COARSE_TOL) with the rotation fixed: a single product's ~1e-7 is far below it, and a
         # 2048² coarse level's two double products took 0.8 s. Not in a Newton's evaluations,
@@ -543,7 +617,7 @@ class ConstrainedCGSolver(NormalSolver):
             else:
                 passes.combine(np.subtract, displacement, w, lifted, workers)
             on_contact = passes.gather(lifted, contact, workers)
-            approach = _mean(pb, on_contact) if load is not None else 0.0
+            approach = pb.allmean(on_contact) if load is not None else 0.0
             on_contact -= approach                     # the deformed gap on S, zero at the solution
             # max(|g| on S, max(−g) off S): −g ≤ |g| on S, so the minimum may run over all nodes
             residual = float(pb.allmax(max(np.abs(on_contact).max(initial=0.0),
@@ -656,7 +730,7 @@ class ConstrainedCGSolver(NormalSolver):
             else:
                 step_direction = z + (gz / previous) * passes.gather(direction, working, workers)
                 if load is not None:
-                    step_direction -= _mean(pb, step_direction)
+                    step_direction -= pb.allmean(step_direction)
             previous = gz
             _clear(direction, last, workers)
             passes.scatter(direction, working, step_direction, workers)
@@ -711,7 +785,7 @@ class ConstrainedCGSolver(NormalSolver):
                 trial[leaving] = 0.0
             # the load restored on the step's forces before their one scatter (a gather and a
             # second scatter of the free set cost 15 ms an iteration near full contact at 2048²)
-            scale = _load_scale(pb, trial, load) if load is not None else 1.0
+            scale = pb.load_scale(trial, load) if load is not None else 1.0
             if scale != 1.0:
                 trial *= scale
             passes.scatter(forces, working, trial, workers)
@@ -913,7 +987,7 @@ class ConstrainedCGSolver(NormalSolver):
 
         z = precondition(g) if coarse is None else coarse.apply(g, nodes, precondition)
         if loaded:
-            z -= _mean(self.problem, z)
+            z -= self.problem.allmean(z)
         return z, float(self.problem.allsum(g @ z))
 
     def _precondition(self, g: np.ndarray, nodes: np.ndarray, single: bool,
@@ -969,18 +1043,3 @@ def _add_scaled(target: np.ndarray, factor: float, values: np.ndarray) -> np.nda
     """target + factor · values, in place, in one pass (BLAS daxpy; numpy's scaling and then
     subtracting took two passes over N more, 20-25 ms of a 4096² iteration)."""
     return daxpy(values, target, a=factor) if target.size else target
-
-
-def _mean(problem: NormalProblem, values: np.ndarray) -> float:
-    """Mean over all ranks of a distributed set of values (0 for an empty set)."""
-    total, count = problem.allsum(np.array([values.sum(), values.size]))
-    return float(total / count) if count else 0.0
-
-
-def _load_scale(problem: NormalProblem, forces: np.ndarray, load: float) -> float:
-    """P / Σ p: the rescaling that restores the load exactly (Polonsky & Keer)."""
-    total = float(problem.allsum(forces.sum()))
-    if not total > 0.0:
-        raise ConvergenceError("CG_NO_CONTACT", "every force vanished during the iteration; "
-                                                "the load cannot be restored")
-    return load / total

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..collective import Collective
-from ..errors import InputError
+from ..errors import ConvergenceError, InputError
 from ..materials import Interface
 from ..surfaces.rows import gather_into
 from ..surfaces.topography import Topography
@@ -193,6 +193,20 @@ class NormalProblem(Collective):
     def allmax(self, local) -> np.ndarray:
         """Maximum over ranks."""
         return self._allreduce(local, "MAX")
+
+    def allmean(self, values: np.ndarray) -> float:
+        """Mean over all ranks of a distributed set of values (0 for an empty set)."""
+        total, count = self.allsum(np.array([values.sum(), values.size]))
+        return float(total / count) if count else 0.0
+
+    def load_scale(self, forces: np.ndarray, load: float) -> float:
+        """P / Σ p over all ranks: the rescaling that restores the load P exactly (Polonsky &
+        Keer); raises where every force has vanished."""
+        total = float(self.allsum(forces.sum()))
+        if not total > 0.0:
+            raise ConvergenceError("CG_NO_CONTACT", "every force vanished during the iteration; "
+                                                    "the load cannot be restored")
+        return load / total
 
     def interpenetration_scale(self, w: np.ndarray) -> float:
         """The scale the gap residual is measured against: the largest |w| over all ranks, at

@@ -1,0 +1,159 @@
+"""The primal–dual active set near full contact (normal/primal_dual.py): the same state as the
+paper's active set and the constrained CG, on any number of ranks, and a cycling set handed on.
+
+Forces are compared at 1e-6 of the largest one, as in test_normal_cg.py: each solver meets the
+contact conditions to tol = 1e-8 of the interpenetration's scale, and H's condition on the set
+(O(10) with the Fourier preconditioner) turns that into about 1e-7 of the forces.
+"""
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+from test_normal_cg import FLAT, assert_same_state, rough, solve
+
+from roughcontact.errors import InputError
+from roughcontact.normal import NormalProblem, primal_dual
+from roughcontact.normal.constrained_cg import CGSettings
+
+#: a mean pressure of E* closes 89 % of rough(160, 2)'s nodes; its coarse level's start (80², one
+#: level below) holds 92 % (the punches' start on a grid without a coarse level holds far fewer:
+#: 28 % of rough(64, 5)'s nodes at E*, whose solution closes 90 %)
+NEAR_FULL = 1.0
+SETTLING = CGSettings(primal_dual_from=1)          # every level near full contact takes it
+WITHOUT = CGSettings(primal_dual_from=None)
+
+
+def near_full_problem(comm, n: int = 160, seed: int = 2) -> NormalProblem:
+    return NormalProblem(rough(n, seed), FLAT, comm, operator="fft")
+
+
+def assert_contact_conditions(problem, result, load: float | None):
+    """p ≥ 0, gap ≥ 0 off S and 0 on S to tol, Σ p = P: checked on H p of the result's own forces,
+    not on anything the solver reports."""
+    footprint = problem.topography.footprint
+    forces = result.force[footprint]
+    local = forces[problem.start:problem.stop]
+    gap = problem.displacement(local) - problem.interpenetration(np.array([result.closure, *result.rotation]))
+    contact = result.contact[footprint][problem.start:problem.stop]
+    # the solver's measure: tol times the scale of the imposed w (the approach left out of it under
+    # load control, where it is the multiplier)
+    imposed = np.array([0.0 if load is not None else result.closure, *result.rotation])
+    bound = 1e-8 * problem.interpenetration_scale(problem.interpenetration(imposed))
+    assert np.all(forces >= 0.0)
+    assert np.all(gap[~contact] >= -bound) and np.all(np.abs(gap[contact]) <= bound)
+    if load is not None:
+        assert forces.sum() == pytest.approx(load, rel=1e-12)
+
+
+def test_near_full_contact_settles_to_the_active_sets_state(comm):
+    """Load control, rotation fixed: the same state as the paper's active set (KSP), the contact
+    conditions met on the forces' own H p, and the sets counted (the CG alone reports one)."""
+    problem = near_full_problem(comm)
+    control = lambda s: s.solve_load(NEAR_FULL, rotation=(0.0, 0.0))    # noqa: E731
+    reference = solve(problem, "ksp", control)
+    result = solve(problem, "cg", control, settings=SETTLING)
+    assert 0.85 < result.contact_fraction < 1.0                  # near full, with holes
+    assert result.outer_iterations > 1 and result.residual <= 1e-8
+    assert_same_state(reference, result)
+    assert_contact_conditions(problem, result, NEAR_FULL)
+    problem.destroy()
+
+
+@pytest.mark.parametrize("rotation", [(0.0, 0.0), (0.05, -0.02)])
+def test_displacement_control_settles_to_the_active_sets_state(comm, rotation):
+    """Closure imposed (no multiplier, no load to restore), with and without an imposed rotation."""
+    problem = near_full_problem(comm)
+    closure = solve(problem, "ksp", lambda s: s.solve_load(NEAR_FULL, rotation=(0.0, 0.0))).closure
+    control = lambda s: s.solve_closure(closure, rotation=rotation)    # noqa: E731
+    reference = solve(problem, "ksp", control)
+    result = solve(problem, "cg", control, settings=SETTLING)
+    assert result.outer_iterations > 1
+    assert_same_state(reference, result)
+    assert result.load == pytest.approx(reference.load, rel=1e-6)
+    assert_contact_conditions(problem, result, None)
+    problem.destroy()
+
+
+def test_the_same_state_on_one_and_all_ranks(comm):
+    """COMM_SELF and COMM_WORLD: the same sets visited and the same state (the reductions differ
+    in order only)."""
+    results = []
+    for c in (MPI.COMM_SELF, comm):
+        problem = near_full_problem(c, 144, seed=5)
+        results.append(solve(problem, "cg", lambda s: s.solve_load(NEAR_FULL, rotation=(0.0, 0.0)),
+                             settings=SETTLING))
+        problem.destroy()
+    assert results[0].outer_iterations == results[1].outer_iterations > 1
+    assert_same_state(*results)
+
+
+def test_the_fine_level_settles_to_the_constrained_cgs_state(comm):
+    """From the coarse level's start (the 80² level below is solved by the constrained CG, its
+    punches' start being sparse): the state of the constrained CG alone."""
+    problem = near_full_problem(comm)
+    control = lambda s: s.solve_load(NEAR_FULL, rotation=(0.0, 0.0))    # noqa: E731
+    alone = solve(problem, "cg", control, settings=WITHOUT)
+    settled = solve(problem, "cg", control, settings=SETTLING)
+    assert alone.outer_iterations == 1 and settled.outer_iterations > 1
+    assert settled.coarse_iterations == alone.coarse_iterations > 0
+    assert_same_state(alone, settled)
+    problem.destroy()
+
+
+def test_a_set_that_does_not_settle_is_handed_to_the_constrained_cg(comm, monkeypatch):
+    """Given up after one set (MAX_SETS = 1): the constrained CG goes on from its forces, reaches
+    the same state and counts the products of both."""
+    problem = near_full_problem(comm)
+    control = lambda s: s.solve_load(NEAR_FULL, rotation=(0.0, 0.0))    # noqa: E731
+    alone = solve(problem, "cg", control, settings=WITHOUT)
+    monkeypatch.setattr(primal_dual, "MAX_SETS", 1)
+    handed = solve(problem, "cg", control, settings=SETTLING)
+    assert handed.outer_iterations == 1                  # the constrained CG's state
+    assert_same_state(alone, handed)
+    assert_contact_conditions(problem, handed, NEAR_FULL)
+    problem.destroy()
+
+
+def test_a_sparse_start_takes_the_constrained_cg(comm):
+    """A start with less than PRIMAL_DUAL_SHARE of the nodes in contact (0.01 E*, a few per cent):
+    the constrained CG alone, step for step."""
+    problem = near_full_problem(comm)
+    control = lambda s: s.solve_load(0.01, rotation=(0.0, 0.0))    # noqa: E731
+    settled = solve(problem, "cg", control, settings=SETTLING)
+    alone = solve(problem, "cg", control, settings=WITHOUT)
+    assert settled.contact_fraction < primal_dual.PRIMAL_DUAL_SHARE
+    assert settled.outer_iterations == 1
+    assert settled.linear_iterations == alone.linear_iterations
+    assert np.array_equal(settled.force, alone.force)
+    problem.destroy()
+
+
+def test_the_trace_names_the_primal_dual_steps(comm, caplog):
+    """Traced at DEBUG: one record per step of the fine level, marked, a new set's first step
+    marked as its restart; the same forces as untraced."""
+    problem = near_full_problem(comm)
+    control = lambda s: s.solve_load(NEAR_FULL, rotation=(0.0, 0.0))    # noqa: E731
+    untraced = solve(problem, "cg", control, settings=SETTLING)
+    with caplog.at_level(logging.DEBUG, logger="roughcontact.normal.constrained_cg"):
+        traced = solve(problem, "cg", control, settings=SETTLING)
+    nodes = problem.size
+    problem.destroy()
+    steps = [record.cg_step for record in caplog.records
+             if hasattr(record, "cg_step") and record.cg_step["nodes"] == nodes]     # the fine level's
+    assert np.array_equal(traced.force, untraced.force)
+    assert steps and all(step["restart"][0] == "primal-dual" for step in steps)
+    assert [step["iteration"] for step in steps] == list(range(1, len(steps) + 1))
+    sets = sum("set" in step["restart"] for step in steps)
+    assert 1 < sets <= traced.outer_iterations
+    # the products: every step's, and the exact H p of each pass that did not go on on a held set
+    assert len(steps) + sets <= traced.linear_iterations <= len(steps) + traced.outer_iterations
+
+
+@pytest.mark.parametrize("value", [0, -1, 1.5, True, "all"])
+def test_bad_primal_dual_from_is_named(value):
+    with pytest.raises(InputError, match="primal_dual_from"):
+        CGSettings(primal_dual_from=value)
+

@@ -17,20 +17,23 @@ Optim. 13 (2002) 865–888), with inexact inner solves: each set's residual
 is about THETA of the last one's, and a set that no longer moves is solved
 on to the tolerance by the same conjugate directions. Every set starts from
 an exact H p in double precision; the products of the directions are taken
-in the working precision. The preconditioner is the constrained CG's own
-(the Fourier preconditioner of the set, its edge correction and the hole
-charge), made once per set and taken from the first step on that set, where
-the constrained CG could take the hole charge only once its set had nearly
-stopped moving.
+in the working precision (all in double after an exact H p fails to confirm
+a set solved to the tolerance). The preconditioner is the constrained CG's
+own (the Fourier preconditioner of the set, its edge correction and the hole
+charge), its edge weights made for each set and the charge taken from the
+first step on it, where the constrained CG takes the hole charge only once
+its set has nearly stopped moving.
 
-It pays only where the set is large and the grid fine (docs/solver-cost.md,
-"The contact set settled by a primal–dual active set"): near full contact at
-2048² 27 steps on 8 sets (35 products) against 34 iterations, 4096² 32 steps
-on 9 sets against 47 iterations; on the large-grid scene (a set of 2–3 % of
-the grid) 26 products against 17 at 1024². :class:`.ConstrainedCGSolver`
-takes it on the fresh solves of levels of ``CGSettings.primal_dual_from``
-nodes or more whose start holds at least PRIMAL_DUAL_SHARE of the grid in
-contact.
+It pays where the set is large (docs/solver-cost.md, "The contact set
+settled by a primal–dual active set"): near full contact, one rank, the two
+alternated in one process, 1024² 3.0–3.2 s against 3.6–3.8 s and 2048²
+15.1–16.6 s against 19.9–20.6 s on three surfaces (2048²: 27 steps on 7
+sets, 35 products, against 34 iterations). On the large-grid scene (a set
+of 2–3 % of the grid) a scratch copy took 26 products against 17
+iterations at 1024², and more time. :class:`.ConstrainedCGSolver` takes it
+on the fresh solves, rotation fixed, of levels of
+``CGSettings.primal_dual_from`` nodes or more whose start holds at least
+PRIMAL_DUAL_SHARE of the level's nodes in contact.
 
 Without a globalisation the iteration may cycle between sets; it then gives
 up (MAX_SETS sets, or MAX_STEPS steps on one set) and returns its forces,

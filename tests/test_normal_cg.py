@@ -447,9 +447,9 @@ def test_free_rotation_resolves_loosely_first_and_returns_a_state_resolved_for_l
     with make_solver(problem, "cg") as solver:
         inner = solver._constrained_cg
 
-        def recording(rigid, free, loads, forces, tol=None):
+        def recording(rigid, free, loads, forces, tol=None, **options):
             tolerances.append(tol)
-            return inner(rigid, free, loads, forces, tol=tol)
+            return inner(rigid, free, loads, forces, tol=tol, **options)
 
         solver._constrained_cg = recording
         result = CONTROLS[control](solver)

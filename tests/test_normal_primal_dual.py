@@ -15,7 +15,7 @@ from mpi4py import MPI
 from test_normal_cg import FLAT, assert_same_state, rough, solve
 
 from roughcontact.errors import InputError
-from roughcontact.normal import NormalProblem, primal_dual
+from roughcontact.normal import NormalProblem, make_solver, primal_dual
 from roughcontact.normal.constrained_cg import CGSettings
 
 #: a mean pressure of E* closes 89 % of rough(160, 2)'s nodes; its coarse level's start (80², one
@@ -39,9 +39,10 @@ def assert_contact_conditions(problem, result, load: float | None):
     gap = problem.displacement(local) - problem.interpenetration(np.array([result.closure, *result.rotation]))
     contact = result.contact[footprint][problem.start:problem.stop]
     # the solver's measure: tol times the scale of the imposed w (the approach left out of it under
-    # load control, where it is the multiplier)
     imposed = np.array([0.0 if load is not None else result.closure, *result.rotation])
-    bound = 1e-8 * problem.interpenetration_scale(problem.interpenetration(imposed))
+    # load control, where it is the multiplier), doubled for the round-off of the second product
+    # that computes the gap here (about 1e-16 of its scale)
+    bound = 2 * CGSettings().tol * problem.interpenetration_scale(problem.interpenetration(imposed))
     assert np.all(forces >= 0.0)
     assert np.all(gap[~contact] >= -bound) and np.all(np.abs(gap[contact]) <= bound)
     if load is not None:
@@ -77,9 +78,29 @@ def test_displacement_control_settles_to_the_active_sets_state(comm, rotation):
     problem.destroy()
 
 
+def test_a_free_rotation_settles_its_first_evaluation(comm, caplog):
+    """Zero moments imposed, the rotation found by the Newton: its first evaluation (a fresh
+    start) takes the primal–dual steps, and the state is the active set's, moments within the
+    Newton's load_tol of P times the footprint's half-size."""
+    problem = near_full_problem(comm)
+    control = lambda s: s.solve_load(NEAR_FULL)    # noqa: E731
+    reference = solve(problem, "ksp", control)
+    with caplog.at_level(logging.DEBUG, logger="roughcontact.normal.constrained_cg"):
+        result = solve(problem, "cg", control, settings=SETTLING)
+    steps = fine_steps(caplog, problem.size)
+    assert any("primal-dual" in step["restart"] for step in steps)
+    assert any("primal-dual" not in step["restart"] for step in steps)      # the later evaluations
+    assert_same_state(reference, result)
+    bound = CGSettings().load_tol * reference.load * problem.extent
+    np.testing.assert_allclose(result.moments, (0.0, 0.0), rtol=0, atol=bound)
+    problem.destroy()
+
+
 def test_the_same_state_on_one_and_all_ranks(comm):
     """COMM_SELF and COMM_WORLD: the same sets visited and the same state (the reductions differ
     in order only)."""
+    if comm.Get_size() == 1:
+        pytest.skip("one rank: COMM_WORLD is COMM_SELF (the suite runs again on two)")
     results = []
     for c in (MPI.COMM_SELF, comm):
         problem = near_full_problem(c, 144, seed=5)
@@ -103,17 +124,41 @@ def test_the_fine_level_settles_to_the_constrained_cgs_state(comm):
     problem.destroy()
 
 
-def test_a_set_that_does_not_settle_is_handed_to_the_constrained_cg(comm, monkeypatch):
-    """Given up after one set (MAX_SETS = 1): the constrained CG goes on from its forces, reaches
-    the same state and counts the products of both."""
+def fine_steps(caplog, nodes: int) -> list[dict]:
+    """The traced steps of the level of ``nodes`` nodes."""
+    return [record.cg_step for record in caplog.records
+            if hasattr(record, "cg_step") and record.cg_step["nodes"] == nodes]
+
+
+@pytest.mark.parametrize("limit", ["MAX_SETS", "MAX_STEPS"])
+def test_a_set_that_does_not_settle_is_handed_to_the_constrained_cg(comm, monkeypatch, caplog, limit):
+    """Given up after one pass (MAX_SETS = 1) or one step on a set (MAX_STEPS = 1): the constrained
+    CG goes on from its forces (the trace: primal–dual steps, then the CG's) and reaches the
+    constrained CG's state alone."""
     problem = near_full_problem(comm)
     control = lambda s: s.solve_load(NEAR_FULL, rotation=(0.0, 0.0))    # noqa: E731
     alone = solve(problem, "cg", control, settings=WITHOUT)
-    monkeypatch.setattr(primal_dual, "MAX_SETS", 1)
-    handed = solve(problem, "cg", control, settings=SETTLING)
+    monkeypatch.setattr(primal_dual, limit, 1)
+    with caplog.at_level(logging.DEBUG, logger="roughcontact.normal.constrained_cg"):
+        handed = solve(problem, "cg", control, settings=SETTLING)
+    marked = ["primal-dual" in step["restart"] for step in fine_steps(caplog, problem.size)]
+    assert marked and marked[0] and not marked[-1]
+    assert marked == sorted(marked, reverse=True)        # the CG's steps only after the last settling one
     assert handed.outer_iterations == 1                  # the constrained CG's state
     assert_same_state(alone, handed)
     assert_contact_conditions(problem, handed, NEAR_FULL)
+    problem.destroy()
+
+
+def test_a_warm_start_takes_the_constrained_cg(comm):
+    """The same load again on the same solver starts from its last solution (not fresh): the
+    constrained CG alone, with the same state."""
+    problem = near_full_problem(comm)
+    with make_solver(problem, "cg", settings=SETTLING) as solver:
+        fresh = solver.solve_load(NEAR_FULL, rotation=(0.0, 0.0))
+        warm = solver.solve_load(NEAR_FULL, rotation=(0.0, 0.0))
+    assert fresh.outer_iterations > 1 and warm.outer_iterations == 1
+    assert_same_state(fresh, warm)
     problem.destroy()
 
 
@@ -124,7 +169,6 @@ def test_a_sparse_start_takes_the_constrained_cg(comm):
     control = lambda s: s.solve_load(0.01, rotation=(0.0, 0.0))    # noqa: E731
     settled = solve(problem, "cg", control, settings=SETTLING)
     alone = solve(problem, "cg", control, settings=WITHOUT)
-    assert settled.contact_fraction < primal_dual.PRIMAL_DUAL_SHARE
     assert settled.outer_iterations == 1
     assert settled.linear_iterations == alone.linear_iterations
     assert np.array_equal(settled.force, alone.force)
@@ -139,10 +183,8 @@ def test_the_trace_names_the_primal_dual_steps(comm, caplog):
     untraced = solve(problem, "cg", control, settings=SETTLING)
     with caplog.at_level(logging.DEBUG, logger="roughcontact.normal.constrained_cg"):
         traced = solve(problem, "cg", control, settings=SETTLING)
-    nodes = problem.size
+    steps = fine_steps(caplog, problem.size)
     problem.destroy()
-    steps = [record.cg_step for record in caplog.records
-             if hasattr(record, "cg_step") and record.cg_step["nodes"] == nodes]     # the fine level's
     assert np.array_equal(traced.force, untraced.force)
     assert steps and all(step["restart"][0] == "primal-dual" for step in steps)
     assert [step["iteration"] for step in steps] == list(range(1, len(steps) + 1))

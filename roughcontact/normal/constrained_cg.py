@@ -304,9 +304,12 @@ class CGSettings:
         (:mod:`.primal_dual`): each set held while the CG solves on it to a
         share of its residual, then moved at once; where that gives up
         (a set cycling) the constrained CG goes on from its forces. With the
-        rotation fixed only: a free rotation's evaluations are warm. None:
-        never. Near full contact (Δ = 2.5, 1 E*, seed 1), CG steps / sets
-        (fine iterations, which count each set's exact H p too) against the
+        rotation free, only the Newton's first evaluation (the later ones
+        start warm): near full contact at 2048² 39.6 s against 42.7 s, 72
+        fine iterations against 74 (medians of 2, alternated), at 1024²
+        10.9 s against 11.2 s (3). None: never. Near full contact (Δ =
+        2.5, 1 E*, seed 1), CG steps / sets (fine iterations, which count
+        each set's exact H p too) against the
         constrained CG's fine iterations: 512² 21 / 6 (28) against 21, 1024²
         24 / 6 (31) against 27, 2048² 27 / 7 (35) against 34, 4096² 33 / 8
         (42) against 47. One rank, the two alternated in one process: 512²
@@ -443,17 +446,7 @@ class ConstrainedCGSolver(NormalSolver):
     def _solve_from(self, rigid, free, loads, forces, motion):
         """The solve from the start (``forces``, ``motion``) :meth:`_start` gave."""
         if len(free) <= 1:
-            settled = None
-            if self._near_full(forces):
-                settled = self._primal_dual(rigid, free, loads, forces)
-                if settled[0] is not None:
-                    return settled[0]
-                forces = settled[1]
-            state, rigid = self._constrained_cg(rigid, free, loads, forces, forces_in_double=not self.coarse,
-                                                owned=True)
-            if settled is not None:                # the products the primal-dual steps took count too
-                state = state._replace(linear=state.linear + settled[2])
-            return state, rigid
+            return self._settled(rigid, free, loads, forces, forces_in_double=not self.coarse, owned=True)
         # free rotation: Newton on (θx, θy), each evaluation a load-controlled solve at fixed θ
         rigid[free] = motion[free]
         state = {"forces": forces}
@@ -469,10 +462,15 @@ class ConstrainedCGSolver(NormalSolver):
             return min(self.settings.tol, 1e-3 * max(needed ** 2, self.settings.load_tol))
 
         anchor = {}                                    # the state the Hessian was last taken at
+        first = [True]                                 # the first evaluation: from the solve's start
 
         def evaluate(motion, needed):
             start = state["forces"] if not anchor else self._predicted(anchor["motion"], anchor["forces"], motion)
-            result, motion = self._constrained_cg(motion, [0], loads, start, tol=resolution(needed))
+            if first[0]:                               # only it may settle its set first (_near_full)
+                first[0] = False
+                result, motion = self._settled(motion, [0], loads, start, tol=resolution(needed))
+            else:
+                result, motion = self._constrained_cg(motion, [0], loads, start, tol=resolution(needed))
             state.update(forces=result.pressure.copy(), motion=motion.copy())
             return result, motion
 
@@ -487,6 +485,26 @@ class ConstrainedCGSolver(NormalSolver):
                                 load_tol=self.settings.load_tol, max_newton=self.settings.max_newton,
                                 resolution=resolution)
 
+    def _settled(self, rigid, free, loads, forces, tol: float | None = None, forces_in_double: bool = True,
+                 owned: bool = False):
+        """:meth:`_constrained_cg` (the same arguments, δz imposed or found from P), after the
+        primal–dual active set where :meth:`_near_full` says (its exact products in the working
+        precision too where ``forces_in_double`` is False); the CG then goes on only where that
+        gave up, and the products of both count."""
+        settled = None
+        if self._near_full(forces):
+            if not owned:
+                forces = forces.copy()
+            settled = self._primal_dual(rigid, free, loads, forces, tol, forces_in_double)
+            if settled[0] is not None:
+                return settled[0]
+            forces, owned = settled[1], True
+        state, rigid = self._constrained_cg(rigid, free, loads, forces, tol=tol, forces_in_double=forces_in_double,
+                                            owned=owned)
+        if settled is not None:                        # the products the primal-dual steps took count too
+            state = state._replace(linear=state.linear + settled[2])
+        return state, rigid
+
     def _near_full(self, forces: np.ndarray) -> bool:
         """Whether this solve settles its set by the primal–dual active set first
         (``CGSettings.primal_dual_from``): a fresh start on a level of that many nodes or more
@@ -496,10 +514,11 @@ class ConstrainedCGSolver(NormalSolver):
         return (start is not None and self._fresh and pb.size >= start
                 and float(pb.allsum(np.count_nonzero(forces > 0.0))) >= PRIMAL_DUAL_SHARE * pb.size)
 
-    def _primal_dual(self, rigid, free, loads, forces):
-        """The primal–dual active set (:mod:`.primal_dual`) from the start ``forces`` with the
-        rotation fixed: ((state, rigid), None, products) where it met the tolerance, else (None,
-        its forces clipped at zero for the constrained CG, the products it took)."""
+    def _primal_dual(self, rigid, free, loads, forces, tol: float | None = None, forces_in_double: bool = True):
+        """The primal–dual active set (:mod:`.primal_dual`) from the start ``forces`` (changed in
+        place) with the rotation fixed, to ``tol`` (None: the settings'): ((state, rigid), None,
+        products) where it met the tolerance, else (None, its forces clipped at zero for the
+        constrained CG, the products it took)."""
         pb, settings = self.problem, self.settings
         rigid, w, load = self._imposed(rigid, free, loads)
         edges = EdgeWeights(pb.flexibility.preconditioner, settings.edge_share) if self._corrected else None
@@ -521,7 +540,8 @@ class ConstrainedCGSolver(NormalSolver):
                            extra={"cg_step": {"nodes": int(pb.size), "iteration": step, "residual": residual,
                                               "changed": changed, "free": size, "held": 0, "alpha": float(alpha),
                                               "restart": restarts}})
-        settled = settle(pb, forces, w, load, settings.tol, settings.precision == "mixed", direction, weights, trace)
+        settled = settle(pb, forces, w, load, settings.tol if tol is None else tol, settings.precision == "mixed",
+                         direction, weights, trace, forces_in_double)
         if not settled.converged:
             return None, settled.forces, settled.products
         rigid[free] = settled.approach

@@ -16,8 +16,9 @@ Newton method on the contact conditions (Hintermüller, Ito & Kunisch, SIAM J.
 Optim. 13 (2002) 865–888), with inexact inner solves: each set's residual
 is about THETA of the last one's, and a set that no longer moves is solved
 on to the tolerance by the same conjugate directions. Every set starts from
-an exact H p in double precision; the products of the directions are taken
-in the working precision (all in double after an exact H p fails to confirm
+an exact H p in double precision (in the working precision on a coarse level
+of a nested start); the products of the directions are taken in the working
+precision (all in double after an exact H p fails to confirm
 a set solved to the tolerance). The preconditioner is the constrained CG's
 own (the Fourier preconditioner of the set, its edge correction and the hole
 charge), its edge weights made for each set and the charge taken from the
@@ -31,7 +32,8 @@ alternated in one process, 1024² 3.0–3.2 s against 3.6–3.8 s and 2048²
 sets, 35 products, against 34 iterations). On the large-grid scene (a set
 of 2–3 % of the grid) a scratch copy took 26 products against 17
 iterations at 1024², and more time. :class:`.ConstrainedCGSolver` takes it
-on the fresh solves, rotation fixed, of levels of
+on the fresh solves (with a free rotation, on its Newton's first
+evaluation) of levels of
 ``CGSettings.primal_dual_from`` nodes or more whose start holds at least
 PRIMAL_DUAL_SHARE of the level's nodes in contact.
 
@@ -56,7 +58,8 @@ from .problem import NormalProblem
 #: the sets after a coarse grid's start), steps (+ sets) at 2048²: 0.01 28 (+7), 0.03 27 (+8),
 #: 0.1 30 (+12); at 1024² 0.3 22 (+11), 0.03 24 (+7), 0.01 27 (+7)
 THETA = 0.03
-#: the sets the iteration may visit before it gives up
+#: the passes the iteration may make before it gives up: one per set, and one more for each set
+#: held to go on to the tolerance or confirmed on an exact H p
 MAX_SETS = 40
 #: the conjugate-gradient steps allowed on one set before it gives up
 MAX_STEPS = 200
@@ -68,8 +71,9 @@ PRIMAL_DUAL_SHARE = 0.5
 class Settled:
     """What :func:`settle` leaves: the forces (this rank's nodes), the deformed gap H p − w − δz of
     its last exact product where ``converged`` (else None), the approach δz (0 without a load),
-    the products taken (the steps and each set's exact H p), the residual of each set it started
-    and whether the contact conditions hold to the tolerance."""
+    the products taken (the steps and each pass's exact H p), the residual each pass started from
+    (a new set, a held one gone on with, or a confirmation) and whether the contact conditions
+    hold to the tolerance."""
 
     forces: np.ndarray
     gap: np.ndarray | None
@@ -81,7 +85,7 @@ class Settled:
 
 def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, load: float | None, tol: float,
            single: bool, direction: Callable, weights: Callable,
-           trace: Callable | None = None) -> Settled:
+           trace: Callable | None = None, forces_in_double: bool = True) -> Settled:
     """The primal–dual active set from ``forces`` (this rank's nodes; changed in place).
 
     ``w``: the imposed interpenetration C r − gap0 with the approach left out under load control,
@@ -90,7 +94,9 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
     products of the directions in single precision. ``direction(g, nodes, edge, single)`` is the
     preconditioned gap on the set ``nodes`` and gᵀz, ``weights(nodes, members, single)`` the edge
     weights of a set (both collective, from the constrained CG); ``trace(step, residual, changed,
-    size, alpha, restart)``, if given, is told each step.
+    size, alpha, restart)``, if given, is told each step. ``forces_in_double`` False: the exact H p
+    of the forces in the working precision too (a coarse level of a nested start, whose tolerance
+    is 1000 times a single product's error; as the constrained CG's).
     """
     pb = problem
     loaded = load is not None
@@ -109,7 +115,7 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
     for _ in range(MAX_SETS):
         if exact:
             del lifted
-            lifted = pb.displacement(forces, False)
+            lifted = pb.displacement(forces, single and not forces_in_double)
             if w is None:
                 lifted += pb.gap0
             else:

@@ -39,9 +39,9 @@ def assert_contact_conditions(problem, result, load: float | None):
     gap = problem.displacement(local) - problem.interpenetration(np.array([result.closure, *result.rotation]))
     contact = result.contact[footprint][problem.start:problem.stop]
     # the solver's measure: tol times the scale of the imposed w (the approach left out of it under
-    imposed = np.array([0.0 if load is not None else result.closure, *result.rotation])
     # load control, where it is the multiplier), doubled for the round-off of the second product
     # that computes the gap here (about 1e-16 of its scale)
+    imposed = np.array([0.0 if load is not None else result.closure, *result.rotation])
     bound = 2 * CGSettings().tol * problem.interpenetration_scale(problem.interpenetration(imposed))
     assert np.all(forces >= 0.0)
     assert np.all(gap[~contact] >= -bound) and np.all(np.abs(gap[contact]) <= bound)

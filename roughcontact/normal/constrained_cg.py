@@ -79,7 +79,6 @@ import logging
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.linalg.blas import daxpy
 
 from ..errors import ConvergenceError, InputError
 from ..operators import passes
@@ -521,9 +520,7 @@ class ConstrainedCGSolver(NormalSolver):
         constrained CG, the products it took)."""
         pb, settings = self.problem, self.settings
         rigid, w, load = self._imposed(rigid, free, loads)
-        edges = EdgeWeights(pb.flexibility.preconditioner, settings.edge_share) if self._corrected else None
-        holes = (HoleCharge(pb.flexibility.layout, pb.comm, settings.edge_share, settings.hole_block)
-                 if self._corrected and settings.hole_block != 0 else None)
+        edges, holes = self._set_corrections()
 
         def direction(g, nodes, edge, single):
             return self._direction(g, nodes, single, edge, load is not None, holes)
@@ -534,15 +531,13 @@ class ConstrainedCGSolver(NormalSolver):
         trace = None
         if _log.isEnabledFor(logging.DEBUG):
             def trace(step, residual, changed, size, alpha, restart):
-                restarts = ["primal-dual"] + ([restart] if restart else [])
-                _log.debug("n %d primal-dual step %d residual %.3e changed %d free %d alpha %.3g restart %s",
-                           pb.size, step, residual, changed, size, alpha, "+".join(restarts),
-                           extra={"cg_step": {"nodes": int(pb.size), "iteration": step, "residual": residual,
-                                              "changed": changed, "free": size, "held": 0, "alpha": float(alpha),
-                                              "restart": restarts}})
+                _log_step(pb.size, step, residual, changed, size, 0, alpha,
+                          ["primal-dual"] + ([restart] if restart else []))
         settled = settle(pb, forces, w, load, settings.tol if tol is None else tol, settings.precision == "mixed",
                          direction, weights, trace, forces_in_double)
         if not settled.converged:
+            _log.debug("n %d primal-dual active set gave up after %d passes and %d products; the constrained "
+                       "CG goes on from its forces", pb.size, len(settled.history), settled.products)
             return None, settled.forces, settled.products
         rigid[free] = settled.approach
         state = self._state(settled.forces, settled.gap, settled.products, settled.history[-1], settled.history)
@@ -612,10 +607,8 @@ class ConstrainedCGSolver(NormalSolver):
         lifted = np.empty_like(forces)
         edge, stale = None, True                       # the edge weights on the free set (None: none)
         # they follow small changes of the free set through windows of C⁻¹ (EdgeWeights)
-        edges = EdgeWeights(pb.flexibility.preconditioner, settings.edge_share) if self._corrected else None
-        # the edge charge the holes of the free set let the preconditioner take back (None: none)
-        holes = (HoleCharge(pb.flexibility.layout, pb.comm, settings.edge_share, settings.hole_block)
-                 if self._corrected and settings.hole_block != 0 else None)
+        # and the edge charge the holes of the free set let the preconditioner take back (None: none)
+        edges, holes = self._set_corrections()
         taking = False                                 # whether the hole charge is taken now
         # the solve's balancing coarse space, made where the hole charge is first taken (None: none)
         coarse_space = self._space if holes is not None else None
@@ -799,13 +792,7 @@ class ConstrainedCGSolver(NormalSolver):
                                      f"{int(counts[1])} nodes; the operator is not positive definite there")
             step = gz / curvature
             if tracing:
-                _log.debug("n %d iteration %d residual %.3e changed %d free %d held %d alpha %.3g restart %s",
-                           pb.size, iteration, residual, counts[0], counts[1], counts[2], step,
-                           "+".join(restarts) or "-",
-                           extra={"cg_step": {"nodes": int(pb.size), "iteration": iteration,
-                                              "residual": residual, "changed": int(counts[0]),
-                                              "free": int(counts[1]), "held": int(counts[2]), "alpha": float(step),
-                                              "restart": list(restarts)}})
+                _log_step(pb.size, iteration, residual, counts[0], counts[1], counts[2], step, restarts)
             step_direction *= step                     # α d in place (``direction`` keeps d): no temporary
             trial = passes.gather(forces, working, workers)
             trial -= step_direction
@@ -872,7 +859,7 @@ class ConstrainedCGSolver(NormalSolver):
             else:
                 if held_product is not None:
                     product = held_product.result()
-                displacement = _add_scaled(displacement, -step, product)
+                displacement = passes.add_scaled(displacement, -step, product)
                 del held_product, product              # before the product of the cut forces
                 if joined:                             # H d was made whole: c (and the deferred) apart
                     displacement += scattered(clipped, cut_nodes) if pending is None else \
@@ -980,6 +967,19 @@ class ConstrainedCGSolver(NormalSolver):
         """Whether the preconditioner carries the edge correction (the same on every rank)."""
         return self.settings.preconditioner == "fourier" and self.settings.edge_share > 0.0
 
+    def _set_corrections(self) -> tuple[EdgeWeights | None, HoleCharge | None]:
+        """A solve's trackers of the preconditioner's corrections on its set: the edge weights
+        (:class:`~roughcontact.operators.preconditioner.EdgeWeights`; None without the edge
+        correction) and the hole charge (:class:`~roughcontact.operators.holes.HoleCharge`; None
+        without it or with ``hole_block`` 0)."""
+        settings, flexibility = self.settings, self.problem.flexibility
+        if not self._corrected:
+            return None, None
+        edges = EdgeWeights(flexibility.preconditioner, settings.edge_share)
+        holes = (HoleCharge(flexibility.layout, self.problem.comm, settings.edge_share, settings.hole_block)
+                 if settings.hole_block != 0 else None)
+        return edges, holes
+
     def _coarse_space(self) -> BalancingSpace | None:
         """The balancing coarse space of this level (:mod:`~roughcontact.operators.balancing`), not
         yet made; None below ``CGSettings.balancing_from`` nodes or without the edge correction."""
@@ -1072,7 +1072,12 @@ def _clear(field: np.ndarray, nodes: np.ndarray | None, workers: int = 1) -> Non
         passes.scatter(field, nodes, 0.0, workers)
 
 
-def _add_scaled(target: np.ndarray, factor: float, values: np.ndarray) -> np.ndarray:
-    """target + factor · values, in place, in one pass (BLAS daxpy; numpy's scaling and then
-    subtracting took two passes over N more, 20-25 ms of a 4096² iteration)."""
-    return daxpy(values, target, a=factor) if target.size else target
+def _log_step(nodes: int, iteration: int, residual: float, changed, free, held, alpha: float,
+              restarts: list[str]) -> None:
+    """One step of a level's iteration at DEBUG: a readable line and the record's ``cg_step`` dict
+    (the constrained CG's steps and the primal–dual active set's, whose restarts say so)."""
+    _log.debug("n %d iteration %d residual %.3e changed %d free %d held %d alpha %.3g restart %s",
+               nodes, iteration, residual, changed, free, held, alpha, "+".join(restarts) or "-",
+               extra={"cg_step": {"nodes": int(nodes), "iteration": iteration, "residual": residual,
+                                  "changed": int(changed), "free": int(free), "held": int(held),
+                                  "alpha": float(alpha), "restart": list(restarts)}})

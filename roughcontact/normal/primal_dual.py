@@ -51,6 +51,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import ConvergenceError
+from ..operators import passes
 from ..operators.convolution import dense
 from .problem import NormalProblem
 
@@ -99,6 +100,7 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
     is 1000 times a single product's error; as the constrained CG's).
     """
     pb = problem
+    workers = pb.flexibility.workers               # the threads of the passes over the nodes
     loaded = load is not None
     w_scale = pb.interpenetration_scale(pb.gap0 if w is None else w)
     if loaded:
@@ -124,7 +126,7 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
         nodes = np.flatnonzero(contact)
         size = int(pb.allsum(nodes.size))          # the set over all ranks (the trace's: every rank reduces)
         outside = ~contact
-        g = lifted[nodes]
+        g = passes.gather(lifted, nodes, workers)
         approach = pb.allmean(g) if loaded else 0.0
         g -= approach
         residual = float(pb.allmax(max(np.abs(g).max(initial=0.0),
@@ -141,7 +143,7 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
         else:
             target = max(tol, THETA * residual)
             edge = weights(nodes, contact, single)
-            searching[:] = 0.0
+            passes.fill(searching, 0.0, workers)
             previous = None
         restart, steps = ("set" if previous is None else None), 0
         while True:                                # the CG on the set, to `target`
@@ -149,17 +151,16 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
             if reached <= target:
                 break
             if steps == MAX_STEPS:
-                np.maximum(forces, 0.0, out=forces)
-                return Settled(forces, None, 0.0, products, history, False)
+                return _unsettled(forces, products, history)
             z, gz = direction(g, nodes, edge, single)
-            d = z if previous is None else z + (gz / previous) * searching[nodes]
+            d = z if previous is None else z + (gz / previous) * passes.gather(searching, nodes, workers)
             del z
             previous = gz
-            searching[nodes] = d
+            passes.scatter(searching, nodes, d, workers)
             product = pb.displacement(searching, single) if dense(nodes.size, forces.size) \
                 else pb.displacement_at(d, nodes, single)
             products += 1
-            on_set = product[nodes]
+            on_set = passes.gather(product, nodes, workers)
             curvature = float(pb.allsum(d @ on_set))
             if not curvature > 0.0:
                 raise ConvergenceError(
@@ -172,7 +173,7 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
                 trace(step, reached, changed, size, alpha, restart)
             changed, restart = 0, None
             forces[nodes] -= alpha * d
-            lifted -= alpha * product
+            lifted = passes.add_scaled(lifted, -alpha, product)
             g -= alpha * on_set
             if loaded:
                 g -= pb.allmean(g)
@@ -194,5 +195,11 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
         if loaded:
             forces *= pb.load_scale(forces, load)
         exact, holding, confirming = True, False, False
+    return _unsettled(forces, products, history)
+
+
+def _unsettled(forces: np.ndarray, products: int, history: list[float]) -> Settled:
+    """What :func:`settle` leaves where it gives up: its forces clipped at zero, in place, for the
+    constrained CG to go on from."""
     np.maximum(forces, 0.0, out=forces)
     return Settled(forces, None, 0.0, products, history, False)

@@ -24,6 +24,7 @@ from __future__ import annotations
 from concurrent.futures import ThreadPoolExecutor, wait
 
 import numpy as np
+from scipy.linalg.blas import daxpy
 
 #: values of an array below which a pass runs in the calling thread: handing a share to another
 #: thread costs about 20 µs, a pass over 2**18 float32 values about 100 µs
@@ -165,6 +166,12 @@ def gather(source: np.ndarray, nodes: np.ndarray, workers: int, out: np.ndarray 
         return np.take(source, nodes, out=out, mode="clip")
     by_rows(threads, nodes.size, lambda a, b: np.take(source, nodes[a:b], out=out[a:b], mode="clip"))
     return out
+
+
+def add_scaled(target: np.ndarray, factor: float, values: np.ndarray) -> np.ndarray:
+    """target + factor · values (float64), in place, in one pass (BLAS daxpy; numpy's scaling and
+    then subtracting took two passes over N more, 20-25 ms of a 4096² iteration)."""
+    return daxpy(values, target, a=factor) if target.size else target
 
 
 def scatter(target: np.ndarray, nodes: np.ndarray, values, workers: int) -> None:

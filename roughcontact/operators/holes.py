@@ -113,21 +113,23 @@ def enclosed(outside: np.ndarray, comm, first_row: int, rows_total: int) -> np.n
     offset = comm.exscan(count) or 0
     rows, ny = outside.shape
     # the components on the grid's frame, and the labels of the slab's first and last rows,
-    # as global ids (0: not outside)
-    ids = np.where(labels > 0, labels + offset, 0) if rows else labels
-    frame = [ids[:, 0], ids[:, -1]] if rows and ny else []
+    # as global ids (0: not outside); only those lines are read, not the whole slab's labels
+    def ids(line: np.ndarray) -> np.ndarray:
+        return np.where(line > 0, line + offset, 0)
+
+    frame = [ids(labels[:, 0]), ids(labels[:, -1])] if rows and ny else []
     if rows and first_row == 0:
-        frame.append(ids[0])
+        frame.append(ids(labels[0]))
     if rows and first_row + rows == rows_total:
-        frame.append(ids[-1])
-    touching = np.unique(np.concatenate(frame)) if frame else np.zeros(0, dtype=ids.dtype)
-    ends = (ids[0], ids[-1]) if rows else None
+        frame.append(ids(labels[-1]))
+    touching = np.unique(np.concatenate(frame)) if frame else np.zeros(0, dtype=labels.dtype)
+    ends = (ids(labels[0]), ids(labels[-1])) if rows else None
     gathered = comm.allgather((touching[touching > 0], ends))
     # components that run across the boundary between two consecutive non-empty slabs are one
     slabs = [part[1] for part in gathered if part[1] is not None]
     pairs = [np.stack([below[0][both], above[1][both]]) for above, below in zip(slabs, slabs[1:])
              for both in [(above[1] > 0) & (below[0] > 0)]]
-    links = np.concatenate(pairs, axis=1) if pairs else np.zeros((2, 0), dtype=ids.dtype)
+    links = np.concatenate(pairs, axis=1) if pairs else np.zeros((2, 0), dtype=labels.dtype)
     open_ids = np.concatenate([part[0] for part in gathered])
     involved = np.unique(np.concatenate([links.ravel(), open_ids]))
     if involved.size:
@@ -179,8 +181,11 @@ class HoleCharge:
         their share γ_b; collective."""
         nx, ny = self.layout.shape
         r0, r1 = self.layout.rows
-        outside = np.ones((r1 - r0) * ny, dtype=bool)
-        outside[self.layout.positions[members]] = False
+        if self.layout.whole_rows:                      # the nodes are the slab's positions in order
+            outside = np.logical_not(members)
+        else:
+            outside = np.ones((r1 - r0) * ny, dtype=bool)
+            outside[self.layout.positions[members]] = False
         outside = outside.reshape(r1 - r0, ny)
         holes = enclosed(outside, self.comm, r0, nx)
         near_hole = _near(holes, self.comm, r0, nx, beyond=False)

@@ -646,7 +646,7 @@ class ConstrainedCGSolver(NormalSolver):
             approach = pb.allmean(on_contact) if load is not None else 0.0
             on_contact -= approach                     # the deformed gap on S, zero at the solution
             # max(|g| on S, max(−g) off S): −g ≤ |g| on S, so the minimum may run over all nodes
-            residual = float(pb.allmax(max(np.abs(on_contact).max(initial=0.0),
+            residual = float(pb.allmax(max(passes.largest_magnitude(on_contact),
                                             approach - lifted.min(initial=approach)))) / w_scale
             # each vector of the set's size is let go as soon as it has served: left alive into the
             # products below, whose blocks were then allocated beside them, they raised a rank's

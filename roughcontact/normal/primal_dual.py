@@ -129,7 +129,7 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
         g = passes.gather(lifted, nodes, workers)
         approach = pb.allmean(g) if loaded else 0.0
         g -= approach
-        residual = float(pb.allmax(max(np.abs(g).max(initial=0.0),
+        residual = float(pb.allmax(max(passes.largest_magnitude(g),
                                        approach - lifted[outside].min(initial=approach)))) / w_scale
         history.append(residual)
         if exact and residual <= tol:
@@ -147,13 +147,15 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
             previous = None
         restart, steps = ("set" if previous is None else None), 0
         while True:                                # the CG on the set, to `target`
-            reached = float(pb.allmax(np.abs(g).max(initial=0.0))) / w_scale
+            reached = float(pb.allmax(passes.largest_magnitude(g))) / w_scale
             if reached <= target:
                 break
             if steps == MAX_STEPS:
                 return _unsettled(forces, products, history)
             z, gz = direction(g, nodes, edge, single)
-            d = z if previous is None else z + (gz / previous) * passes.gather(searching, nodes, workers)
+            # d = z + β d_last, into z itself by a daxpy (z is this step's own)
+            d = z if previous is None else passes.add_scaled(z, gz / previous,
+                                                             passes.gather(searching, nodes, workers))
             del z
             previous = gz
             passes.scatter(searching, nodes, d, workers)
@@ -178,7 +180,7 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
             lifted = passes.add_scaled(lifted, -alpha, product)
             g = passes.add_scaled(g, -alpha, on_set)
             if loaded:
-                g -= pb.allmean(g)
+                passes.combine(np.subtract, g, pb.allmean(g), g, workers)
             del d, product, on_set
         # the set moves: tension leaves, interpenetration enters (§3.1)
         approach = pb.allmean(lifted[nodes]) if loaded else 0.0

@@ -68,6 +68,7 @@ import numpy as np
 import scipy.fft as sfft
 
 from ..errors import ConvergenceError
+from . import passes
 from .convolution import SlabConvolution, dense
 from .kernel import mirrored_kernel, punch_kernel
 from .near_field import gathered_centres
@@ -153,7 +154,10 @@ class FourierPreconditioner:
         float64."""
         smoothed = self._restricted(values, nodes, single)
         if edge is not None:
-            smoothed -= edge * values
+            # on the transforms' threads: 3.2 against 4.7 ms for 3.6 M nodes
+            workers = self.convolution.workers
+            taken = passes.combine(np.multiply, edge, values, np.empty_like(smoothed), workers)
+            passes.combine(np.subtract, smoothed, taken, smoothed, workers)
         return smoothed
 
     def edge_weights(self, nodes: np.ndarray, single: bool = False, share: float = EDGE_SHARE) -> np.ndarray:

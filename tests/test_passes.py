@@ -199,6 +199,19 @@ def test_node_passes_equal_numpy(shared_always, workers, share):
     assert np.array_equal(in_place, flags > mask)
 
 
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_largest_magnitude_equals_numpys(dtype):
+    """max |x| by the largest and smallest values, exactly numpy's np.abs(x).max(initial=0) (a
+    negation is exact): values of both signs, one sign, none, and a NaN, which it passes on."""
+    rng = np.random.default_rng(5)
+    for values in (rng.standard_normal(1009), -rng.random(64), rng.random(64), np.zeros(0)):
+        values = values.astype(dtype)
+        assert passes.largest_magnitude(values) == float(np.abs(values).max(initial=0.0))
+    with_nan = rng.standard_normal(16).astype(dtype)
+    with_nan[7] = np.nan
+    assert np.isnan(passes.largest_magnitude(with_nan))
+
+
 @pytest.mark.parametrize("scene", ["sparse", "full"])
 def test_a_constrained_cg_solve_does_not_depend_on_the_threads(comm, shared_always, scene):
     """A whole nested CG solve (its loop's passes over the nodes and its products, every one split

@@ -461,12 +461,10 @@ class ConstrainedCGSolver(NormalSolver):
             return min(self.settings.tol, 1e-3 * max(needed ** 2, self.settings.load_tol))
 
         anchor = {}                                    # the state the Hessian was last taken at
-        first = [True]                                 # the first evaluation: from the solve's start
 
         def evaluate(motion, needed):
             start = state["forces"] if not anchor else self._predicted(anchor["motion"], anchor["forces"], motion)
-            if first[0]:                               # only it may settle its set first (_near_full)
-                first[0] = False
+            if "motion" not in state:                  # the first evaluation: only it may settle first
                 result, motion = self._settled(motion, [0], loads, start, tol=resolution(needed))
             else:
                 result, motion = self._constrained_cg(motion, [0], loads, start, tol=resolution(needed))

@@ -117,13 +117,13 @@ def enclosed(outside: np.ndarray, comm, first_row: int, rows_total: int) -> np.n
     def ids(line: np.ndarray) -> np.ndarray:
         return np.where(line > 0, line + offset, 0)
 
+    ends = (ids(labels[0]), ids(labels[-1])) if rows else None
     frame = [ids(labels[:, 0]), ids(labels[:, -1])] if rows and ny else []
     if rows and first_row == 0:
-        frame.append(ids(labels[0]))
+        frame.append(ends[0])
     if rows and first_row + rows == rows_total:
-        frame.append(ids(labels[-1]))
+        frame.append(ends[1])
     touching = np.unique(np.concatenate(frame)) if frame else np.zeros(0, dtype=labels.dtype)
-    ends = (ids(labels[0]), ids(labels[-1])) if rows else None
     gathered = comm.allgather((touching[touching > 0], ends))
     # components that run across the boundary between two consecutive non-empty slabs are one
     slabs = [part[1] for part in gathered if part[1] is not None]

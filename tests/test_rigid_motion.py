@@ -16,7 +16,7 @@ import pytest
 
 from roughcontact.errors import ConvergenceError
 from roughcontact.normal.result import ContactState
-from roughcontact.normal.rigid_motion import newton_on_motion
+from roughcontact.normal.rigid_motion import CONFIRM_SHARE, FINEST_SHARE, InexactResolution, newton_on_motion
 
 K = 2.0            # spring stiffness: H = I / K
 P = 10.0           # imposed load
@@ -118,3 +118,72 @@ def test_without_resolving_again_the_search_gives_up():
     bed, log = Springs(), []
     with pytest.raises(ConvergenceError, match="no decrease"):
         newton(bed, np.array([P, 0.0, 0.0]), log, resolution=None)
+
+
+def jittered(bed: Springs, loads: np.ndarray, rule: InexactResolution, log: list):
+    """evaluate(r, needed) for the Newton whose states' moments are off by JITTER × the inner
+    tolerance ``rule(needed)`` (× P × extent), along the true moments: an inner solve stopped at
+    tolerance t leaves the moments off by about t (by up to 2.8 t in the CG's measured states,
+    CONFIRM_SHARE), and here no rotation brings them nearer than that. Σp stays P; ``log`` gets
+    each evaluation's inner tolerance."""
+    outer = bed.columns[:, 1:]
+
+    def evaluate(rigid, needed):
+        tol = rule(needed)
+        log.append(tol)
+        rigid = rigid.copy()
+        rigid[0] = 0.0
+        rigid[0] = (P / K - bed.interpenetration(rigid).sum()) / bed.x.size
+        w = bed.interpenetration(rigid)
+        true = outer.T @ (K * w) - loads[1:]
+        off = JITTER * tol * P * bed.extent * true / max(np.abs(true).max(), 1e-300)
+        forces = K * w + outer @ np.linalg.solve(outer.T @ outer, off)
+        gap = forces / K - w
+        state = ContactState(forces, np.ones(forces.size, bool), np.zeros(forces.size), 1, 1, 0.0, (),
+                             float(forces @ gap))
+        return state, rigid
+
+    return evaluate
+
+
+#: how far off the states' moments are, in units of the inner tolerance: at the first floor
+#: (CONFIRM_SHARE × load_tol) by 5 load_tol, at the finest (FINEST_SHARE) by 0.05 load_tol
+JITTER = 50.0
+
+
+def test_states_scattered_above_load_tol_at_the_floor_are_resolved_below_it():
+    """Where the states resolved at the floor have moments off by more than load_tol, the steps
+    from them stop halving the load residual; the floor is lowered and the state resolved again,
+    and the Newton meets load_tol on the closed form's rotation. The rule's floor: share ×
+    load_tol, 0.1 first, then 1e-3, then no lower."""
+    assert CONFIRM_SHARE == 0.1 and FINEST_SHARE == 1e-3
+    bed, log = Springs(), []
+    loads = np.array([P, 0.0, 0.0])
+    rule = InexactResolution(tol=1e-6, load_tol=LOAD_TOL, first=1e-6)
+    assert rule(np.inf) == 1e-6 and rule(1.0) == 1e-6 and rule(1e-13) == pytest.approx(0.1 * LOAD_TOL)
+    centred = bed.columns[:, 1:] - bed.columns[:, 1:].mean(axis=0)
+    stiffness = lambda active: (K * centred.T @ centred, 0)               # noqa: E731
+    state, rigid = newton_on_motion(bed, np.zeros(3), [0, 1, 2], [1, 2], loads, jittered(bed, loads, rule, log),
+                                    stiffness, load_tol=LOAD_TOL, max_newton=20, resolution=rule,
+                                    tighten=rule.tighten)
+    assert rule.share == pytest.approx(FINEST_SHARE) and not rule.tighten()
+    assert min(log) == pytest.approx(FINEST_SHARE * LOAD_TOL)
+    moments = bed.columns.T @ state.pressure - loads
+    assert np.abs(moments).max() <= LOAD_TOL * P * bed.extent
+    # the rotation: the closed form's, to what moments within load_tol leave of it (K ≈ 1.1e3 here
+    # against P × extent = 40: about 4e-12 rad, 1e-9 of the rotation)
+    np.testing.assert_allclose(rigid[1:], bed.exact(loads)[1:], rtol=1e-8)
+
+
+def test_without_lowering_the_floor_scattered_states_stop_the_newton():
+    """The same scattered states with the floor held at CONFIRM_SHARE: every state's moments are
+    off by 5 load_tol, the Newton cannot meet load_tol and raises after max_newton steps, which is
+    what lowering the floor prevents."""
+    bed, log = Springs(), []
+    loads = np.array([P, 0.0, 0.0])
+    rule = InexactResolution(tol=1e-6, load_tol=LOAD_TOL, first=1e-6)
+    centred = bed.columns[:, 1:] - bed.columns[:, 1:].mean(axis=0)
+    stiffness = lambda active: (K * centred.T @ centred, 0)               # noqa: E731
+    with pytest.raises(ConvergenceError, match="without meeting load_tol"):
+        newton_on_motion(bed, np.zeros(3), [0, 1, 2], [1, 2], loads, jittered(bed, loads, rule, log),
+                         stiffness, load_tol=LOAD_TOL, max_newton=20, resolution=rule)

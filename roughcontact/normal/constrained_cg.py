@@ -90,7 +90,7 @@ from .nested import COARSE_TOL, NestedStart
 from .primal_dual import PRIMAL_DUAL_SHARE, settle
 from .problem import NormalProblem
 from .result import ContactState
-from .rigid_motion import newton_on_motion
+from .rigid_motion import InexactResolution, newton_on_motion
 from .solver import NormalSolver
 
 _log = logging.getLogger(__name__)
@@ -450,15 +450,10 @@ class ConstrainedCGSolver(NormalSolver):
         rigid[free] = motion[free]
         state = {"forces": forces}
 
-        def resolution(needed):
-            # an inexact Newton: the step from a load residual e (``needed``) leaves about e², so
-            # the inner solve need resolve the moments only 1000 times below e², and below
-            # load_tol once e² is (the state that meets load_tol is confirmed there). Resolving
-            # every evaluation below load_tol, as before, solved the first steps 1000 times
-            # tighter than their own residual was wide
-            if needed == np.inf:                       # the first evaluation: see FIRST_TOL
-                return max(self.settings.tol, FIRST_TOL)
-            return min(self.settings.tol, 1e-3 * max(needed ** 2, self.settings.load_tol))
+        # an inexact Newton: each state resolved only as far as the step from it needs, the first
+        # to FIRST_TOL. Resolving every evaluation below load_tol, as once, solved the first steps
+        # 1000 times tighter than their own residual was wide
+        resolution = InexactResolution(self.settings.tol, self.settings.load_tol, FIRST_TOL)
 
         anchor = {}                                    # the state the Hessian was last taken at
 
@@ -480,7 +475,7 @@ class ConstrainedCGSolver(NormalSolver):
 
         return newton_on_motion(self.problem, rigid, free, [1, 2], loads, evaluate, stiffness,
                                 load_tol=self.settings.load_tol, max_newton=self.settings.max_newton,
-                                resolution=resolution)
+                                resolution=resolution, tighten=resolution.tighten)
 
     def _settled(self, rigid, free, loads, forces, tol: float | None = None, forces_in_double: bool = True,
                  owned: bool = False):

@@ -40,6 +40,15 @@ from .result import ContactState
 
 #: relative round-off of Φ = ½ pᵀw − ½ pᵀg − rᵀL: a rise below it is no rise
 PHI_ROUNDOFF = 1e-10
+#: the inner tolerance of an inexact evaluation is at least this share of load_tol
+#: (:class:`InexactResolution`): the moments of a state resolved to r were off by 0.002-2.8 r (at
+#: r = 1e-11 to 1e-7; 12 states: the large-grid scene and near full contact at 256², 12-load
+#: sweeps' states at 65² and 129²), so 0.1 keeps them within 0.28 load_tol. The share was 1e-3:
+#: the last evaluation took 7 and 9 CG iterations near full contact and on the scene at 1024²,
+#: where 0.1 takes 1 and 5
+CONFIRM_SHARE = 0.1
+#: ... lowered a hundredfold, to this, where the states so resolved stop the Newton's progress
+FINEST_SHARE = 1e-3
 
 Evaluate = Callable[[np.ndarray, float], tuple[ContactState, np.ndarray]]
 Stiffness = Callable[[np.ndarray], tuple[np.ndarray, int]]
@@ -49,7 +58,8 @@ Resolution = Callable[[float], float]
 def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int], outer: list[int],
                      loads: np.ndarray, evaluate: Evaluate, stiffness: Stiffness,
                      load_tol: float, max_newton: int,
-                     resolution: Resolution | None = None) -> tuple[ContactState, np.ndarray]:
+                     resolution: Resolution | None = None,
+                     tighten: Callable[[], bool] | None = None) -> tuple[ContactState, np.ndarray]:
     """The contact state whose loads C_freeᵀ p equal ``loads[free]``, and its rigid motion.
 
     Parameters
@@ -79,6 +89,12 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
         meets ``load_tol`` but was resolved more loosely than for ``load_tol`` is evaluated
         again for it before it is returned, and a state the line search cannot improve is
         resolved for its own residual first when that is tighter than it was resolved for.
+    tighten
+        For inexact evaluations whose ``resolution`` has a floor (``resolution(0)``,
+        :class:`InexactResolution`): ``tighten()`` lowers it and says whether it could. A state the
+        line search cannot improve and that its own residual would not resolve more tightly,
+        or a step from a state resolved at the floor that did not halve the load residual,
+        is resolved again below the lowered floor.
     """
     def looser(resolved_for: float, than: float) -> bool:
         """Whether a state resolved for ``resolved_for`` is resolved more loosely than for ``than``."""
@@ -130,10 +146,11 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
                     or alpha < 1e-6):
                 break
             alpha *= 0.5
-        if alpha < 1e-6 and looser(needed, error):
-            # the state was resolved for the larger residual of the step before: its loads and Φ
-            # may be off by more than this step can gain. Resolve it for its own residual, go on
-            # (each retry resolves more tightly than the last, so they end)
+        if alpha < 1e-6 and (looser(needed, error) or (tighten is not None and tighten())):
+            # the state was resolved for the larger residual of the step before, or at the floor
+            # of the resolution: its loads and Φ may be off by more than this step can gain.
+            # Resolve it for its own residual (below the lowered floor), go on (each retry
+            # resolves more tightly than the last, and the floor has a bottom, so they end)
             needed = error
             state, rigid, phi, force = evaluated(rigid, needed)
             continue
@@ -154,6 +171,13 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
         moved = float(np.max(np.abs(alpha * newton_step) / units))
         radius = 4.0 * radius if alpha == 1.0 and moved >= 0.99 * radius else max(moved, 1e-3)
         rigid, state, phi, force, needed = t_rigid, t_state, t_phi, t_force, error
+        left = float(np.max(np.abs(force) / scale))
+        if tighten is not None and left > max(load_tol, 0.5 * error) and resolution(error) <= resolution(0.0) \
+                and tighten():
+            # a step from a state resolved at the floor that did not halve the residual nor meet
+            # load_tol: near the solution Newton's steps leave about e², so the states' moments
+            # are off by more than the steps gain. Resolve the new state below the lowered floor
+            state, rigid, phi, force = evaluated(rigid, needed)
     raise ConvergenceError(
         "LOAD_CONTROL_MAX_ITERATIONS",
         f"{max_newton} Newton steps on the rigid motion without meeting load_tol={load_tol:g} "
@@ -220,3 +244,32 @@ def _newton_step(hessian: np.ndarray, force: np.ndarray, units: np.ndarray, radi
     if longest > radius:
         step *= radius / longest
     return step * units
+
+
+class InexactResolution:
+    """The inner tolerance an inexact Newton resolves a state to, for the load residual e it
+    stands at (``needed``): min(tol, max(1e-3 e², share × load_tol)).
+
+    The step from a residual e leaves about e², so the state it steps from need resolve its
+    moments only 1000 times below e²; the floor, share × load_tol with the share
+    :data:`CONFIRM_SHARE`, holds the last states (e² below load_tol), whose moments must meet
+    load_tol, close enough for that. :meth:`tighten` lowers the share a hundredfold, down to
+    :data:`FINEST_SHARE`, where a state so resolved is still too far off. The first evaluation
+    (e = inf, the start's residual unknown) is resolved to max(tol, ``first``).
+    """
+
+    def __init__(self, tol: float, load_tol: float, first: float):
+        self.tol, self.load_tol, self.first = tol, load_tol, first
+        self.share = CONFIRM_SHARE
+
+    def __call__(self, needed: float) -> float:
+        if needed == np.inf:
+            return max(self.tol, self.first)
+        return min(self.tol, max(1e-3 * needed ** 2, self.share * self.load_tol))
+
+    def tighten(self) -> bool:
+        """Lower the floor a hundredfold; False where it is at :data:`FINEST_SHARE` already."""
+        if self.share <= FINEST_SHARE:
+            return False
+        self.share = max(self.share / 100.0, FINEST_SHARE)
+        return True

@@ -175,6 +175,50 @@ def test_states_scattered_above_load_tol_at_the_floor_are_resolved_below_it():
     np.testing.assert_allclose(rigid[1:], bed.exact(loads)[1:], rtol=1e-8)
 
 
+def test_a_state_at_the_floor_the_search_cannot_improve_is_resolved_below_it():
+    """The other way the floor shows: a state resolved at the floor from which no step length
+    is accepted. Here every state resolved at the first floor has moments off by 5 load_tol, and
+    all but the first a complementarity slack that puts its Φ far above the first's, so the line
+    search halves to 1e-6 without a decrease; the floor is lowered, the first state resolved
+    again (a retry at the same rotation), and the Newton meets load_tol on the closed form's
+    rotation."""
+    bed, log = Springs(), []
+    loads = np.array([P, 0.0, 0.0])
+    rule = InexactResolution(tol=1e-6, load_tol=LOAD_TOL, first=1e-6)
+    floor = CONFIRM_SHARE * LOAD_TOL
+    outer = bed.columns[:, 1:]
+    first = []                                     # the rotation of the first state at the floor
+
+    def evaluate(rigid, needed):
+        tol = rule(needed)
+        log.append((tol, rigid[1:].copy()))
+        rigid = rigid.copy()
+        rigid[0] = 0.0
+        rigid[0] = (P / K - bed.interpenetration(rigid).sum()) / bed.x.size
+        w = bed.interpenetration(rigid)
+        forces, slack = K * w, 0.0
+        if tol == pytest.approx(floor):
+            if not first:
+                first.append(rigid[1:].copy())
+            forces = forces + outer @ np.linalg.solve(outer.T @ outer, JITTER * tol * P * bed.extent * np.ones(2))
+            if not np.array_equal(rigid[1:], first[0]):
+                slack = -1e3 * P * bed.extent                 # Φ = … − ½ slack: far above the first's
+        state = ContactState(forces, np.ones(forces.size, bool), np.zeros(forces.size), 1, 1, 0.0, (),
+                             float(forces @ (forces / K - w)) + slack)
+        return state, rigid
+
+    centred = outer - outer.mean(axis=0)
+    stiffness = lambda active: (K * centred.T @ centred, 0)               # noqa: E731
+    state, rigid = newton_on_motion(bed, np.zeros(3), [0, 1, 2], [1, 2], loads, evaluate, stiffness,
+                                    load_tol=LOAD_TOL, max_newton=20, resolution=rule, tighten=rule.tighten)
+    assert rule.share == pytest.approx(FINEST_SHARE)
+    retried = [k for k, (tol, rotation) in enumerate(log)
+               if tol == pytest.approx(FINEST_SHARE * LOAD_TOL) and np.array_equal(rotation, first[0])]
+    assert retried, "the first state at the floor was not resolved again below it"
+    np.testing.assert_allclose(bed.columns.T @ state.pressure - loads, 0.0, atol=LOAD_TOL * P * bed.extent)
+    np.testing.assert_allclose(rigid[1:], bed.exact(loads)[1:], rtol=1e-8)
+
+
 def test_without_lowering_the_floor_scattered_states_stop_the_newton():
     """The same scattered states with the floor held at CONFIRM_SHARE: every state's moments are
     off by 5 load_tol, the Newton cannot meet load_tol and raises after max_newton steps, which is

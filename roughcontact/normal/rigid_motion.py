@@ -100,6 +100,12 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
         """Whether a state resolved for ``resolved_for`` is resolved more loosely than for ``than``."""
         return resolution is not None and resolution(resolved_for) > resolution(than)
 
+    def lowered(resolved_for: float) -> bool:
+        """Whether a state resolved for ``resolved_for`` sat on the resolution's floor, and the
+        floor was lowered below it."""
+        return (tighten is not None and resolution is not None
+                and resolution(resolved_for) <= resolution(0.0) and tighten())
+
     target = loads[outer]
     extent = problem.extent
     scale = np.array([loads[0], loads[0] * extent, loads[0] * extent])[outer]
@@ -146,7 +152,7 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
                     or alpha < 1e-6):
                 break
             alpha *= 0.5
-        if alpha < 1e-6 and (looser(needed, error) or (tighten is not None and tighten())):
+        if alpha < 1e-6 and (looser(needed, error) or lowered(needed)):
             # the state was resolved for the larger residual of the step before, or at the floor
             # of the resolution: its loads and Φ may be off by more than this step can gain.
             # Resolve it for its own residual (below the lowered floor), go on (each retry
@@ -171,9 +177,7 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
         moved = float(np.max(np.abs(alpha * newton_step) / units))
         radius = 4.0 * radius if alpha == 1.0 and moved >= 0.99 * radius else max(moved, 1e-3)
         rigid, state, phi, force, needed = t_rigid, t_state, t_phi, t_force, error
-        left = float(np.max(np.abs(force) / scale))
-        if tighten is not None and left > max(load_tol, 0.5 * error) and resolution(error) <= resolution(0.0) \
-                and tighten():
+        if float(np.max(np.abs(force) / scale)) > max(load_tol, 0.5 * error) and lowered(error):
             # a step from a state resolved at the floor that did not halve the residual nor meet
             # load_tol: near the solution Newton's steps leave about e², so the states' moments
             # are off by more than the steps gain. Resolve the new state below the lowered floor

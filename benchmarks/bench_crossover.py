@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-from benchmarks.common import save_json
+from benchmarks.common import ensemble_task, save_json
 
 
 def main() -> None:
@@ -36,16 +36,12 @@ def main() -> None:
     petsc4py.init([])
     from mpi4py import MPI
 
-    from roughcontact.materials import Interface, Material
     from roughcontact.normal import NormalProblem, make_solver
-    from roughcontact.surfaces import midpoint_surface
 
-    rock = Interface(Material(20e9, 0.2), Material(20e9, 0.2))
     rows = []
     for levels in args.levels:
-        topo = midpoint_surface(levels, 2.3, spacing=1e-4, rms_height=1e-5, seed=1)
+        topo, rock, loads = ensemble_task(levels)
         n = topo.shape[0]
-        loads = np.geomspace(5e-4, 5e-2, 12) * 0.1 * rock.contact_modulus * topo.nominal_area
         for operator in ("dense", "fft"):
             if operator == "dense" and n > 129:
                 continue

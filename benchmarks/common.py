@@ -160,6 +160,22 @@ def solve_scene(problem, pressure: float = SCENE_PRESSURE, settings=None, gather
                                  rotation=None if free_rotation else (0.0, 0.0), gather=gather)
 
 
+def ensemble_task(levels: int, seed: int = 1):
+    """An ensemble's task, as ``auto``'s crossovers measure it: (topography, interface, loads). A
+    midpoint surface of 2^levels + 1 nodes a side (Δ = 2.3, rms height 10 µm, spacing 100 µm)
+    between two rock half-spaces (E = 20 GPa, ν = 0.2), and 12 loads from 0.05 % to 5 % of
+    E* A0 (the default study's range of contact), solved one after the other, warm-started."""
+    import numpy as np
+
+    from roughcontact.materials import Interface, Material
+    from roughcontact.surfaces import midpoint_surface
+
+    rock = Interface(Material(20e9, 0.2), Material(20e9, 0.2))
+    topo = midpoint_surface(levels, 2.3, spacing=1e-4, rms_height=1e-5, seed=seed)
+    loads = np.geomspace(5e-4, 5e-2, 12) * 0.1 * rock.contact_modulus * topo.nominal_area
+    return topo, rock, loads
+
+
 def sweep_scene(n: int):
     """The tangential benchmarks' scene: (topography, interface, closure). A midpoint surface
     (Δ = 2.3, seed 7) cropped to n × n, between two identical ν = 0 half-spaces, and the

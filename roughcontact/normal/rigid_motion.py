@@ -41,11 +41,11 @@ from .result import ContactState
 #: relative round-off of Φ = ½ pᵀw − ½ pᵀg − rᵀL: a rise below it is no rise
 PHI_ROUNDOFF = 1e-10
 #: the inner tolerance of an inexact evaluation is at least this share of load_tol
-#: (:class:`InexactResolution`): the moments of a state resolved to r were off by 0.002-2.8 r (at
-#: r = 1e-11 to 1e-7; 12 states: the large-grid scene and near full contact at 256², 12-load
-#: sweeps' states at 65² and 129²), so 0.1 keeps them within 0.28 load_tol. The share was 1e-3:
-#: the last evaluation took 7 and 9 CG iterations near full contact and on the scene at 1024²,
-#: where 0.1 takes 1 and 5
+#: (:class:`InexactResolution`): the moments of a state resolved to r were off by 0.0016-2.8 r
+#: (r = 1e-11 to 1e-7; 10 states: the large-grid scene and near full contact at 256², an
+#: ensemble task's at 65² and 129²; benchmarks/bench_rotation.py), so 0.1 keeps them within
+#: 0.28 load_tol. The share was 1e-3: the last evaluation took 7 and 9 CG iterations near full
+#: contact and on the scene at 1024², where 0.1 takes 1 and 5
 CONFIRM_SHARE = 0.1
 #: ... lowered a hundredfold, to this, where the states so resolved stop the Newton's progress
 FINEST_SHARE = 1e-3

@@ -51,6 +51,21 @@ class Springs:
         return np.linalg.solve(c.T @ c, loads / K + c.T @ self.gap0)
 
 
+def spring_state(bed: Springs, rigid: np.ndarray, off: np.ndarray | float = 0.0, slack: float = 0.0):
+    """(state, rigid) at the rotation of ``rigid``, δz found from Σp = P: the springs' forces with
+    their moments moved by ``off`` (Σp unchanged: the rotations' columns sum to zero on the
+    centred bed), the gap and complementarity slack such forces have, plus ``slack``."""
+    outer = bed.columns[:, 1:]
+    rigid = rigid.copy()
+    rigid[0] = 0.0
+    rigid[0] = (P / K - bed.interpenetration(rigid).sum()) / bed.x.size
+    w = bed.interpenetration(rigid)
+    forces = K * w + outer @ np.linalg.solve(outer.T @ outer, off * np.ones(2))
+    state = ContactState(forces, np.ones(forces.size, bool), np.zeros(forces.size), 1, 1, 0.0, (),
+                         float(forces @ (forces / K - w)) + slack)
+    return state, rigid
+
+
 def evaluations(bed: Springs, loads: np.ndarray, log: list, loose: float):
     """evaluate(r, needed) for the Newton: δz from Σp = P at the imposed rotation, forces off
     when resolved for a residual above ``loose``; ``log`` gets (needed, rotation) of each call."""
@@ -58,18 +73,10 @@ def evaluations(bed: Springs, loads: np.ndarray, log: list, loose: float):
 
     def evaluate(rigid, needed):
         log.append((needed, rigid[1:].copy()))
-        rigid = rigid.copy()
-        rigid[0] = 0.0
-        rigid[0] = (P / K - bed.interpenetration(rigid).sum()) / bed.x.size
-        w = bed.interpenetration(rigid)
-        forces = K * w
-        if needed > loose:
-            moments = outer.T @ forces - loads[1:]
-            forces = forces - 1.1 * outer @ np.linalg.solve(outer.T @ outer, moments)   # Σ unchanged
-        gap = forces / K - w
-        assert forces.min() > 0.0 and abs(forces.sum() - P) < 1e-12
-        state = ContactState(forces, np.ones(forces.size, bool), np.zeros(forces.size), 1, 1, 0.0, (),
-                             float(forces @ gap))
+        state, rigid = spring_state(bed, rigid)
+        if needed > loose:                               # the moments pointing against the true ones
+            state, rigid = spring_state(bed, rigid, -1.1 * (outer.T @ state.pressure - loads[1:]))
+        assert state.pressure.min() > 0.0 and abs(state.pressure.sum() - P) < 1e-12
         return state, rigid
 
     return evaluate
@@ -131,17 +138,9 @@ def jittered(bed: Springs, loads: np.ndarray, rule: InexactResolution, log: list
     def evaluate(rigid, needed):
         tol = rule(needed)
         log.append(tol)
-        rigid = rigid.copy()
-        rigid[0] = 0.0
-        rigid[0] = (P / K - bed.interpenetration(rigid).sum()) / bed.x.size
-        w = bed.interpenetration(rigid)
-        true = outer.T @ (K * w) - loads[1:]
-        off = JITTER * tol * P * bed.extent * true / max(np.abs(true).max(), 1e-300)
-        forces = K * w + outer @ np.linalg.solve(outer.T @ outer, off)
-        gap = forces / K - w
-        state = ContactState(forces, np.ones(forces.size, bool), np.zeros(forces.size), 1, 1, 0.0, (),
-                             float(forces @ gap))
-        return state, rigid
+        state, rigid = spring_state(bed, rigid)
+        true = outer.T @ state.pressure - loads[1:]
+        return spring_state(bed, rigid, JITTER * tol * P * bed.extent * true / max(np.abs(true).max(), 1e-300))
 
     return evaluate
 
@@ -192,20 +191,13 @@ def test_a_state_at_the_floor_the_search_cannot_improve_is_resolved_below_it():
     def evaluate(rigid, needed):
         tol = rule(needed)
         log.append((tol, rigid[1:].copy()))
-        rigid = rigid.copy()
-        rigid[0] = 0.0
-        rigid[0] = (P / K - bed.interpenetration(rigid).sum()) / bed.x.size
-        w = bed.interpenetration(rigid)
-        forces, slack = K * w, 0.0
-        if tol == pytest.approx(floor):
-            if not first:
-                first.append(rigid[1:].copy())
-            forces = forces + outer @ np.linalg.solve(outer.T @ outer, JITTER * tol * P * bed.extent * np.ones(2))
-            if not np.array_equal(rigid[1:], first[0]):
-                slack = -1e3 * P * bed.extent                 # Φ = … − ½ slack: far above the first's
-        state = ContactState(forces, np.ones(forces.size, bool), np.zeros(forces.size), 1, 1, 0.0, (),
-                             float(forces @ (forces / K - w)) + slack)
-        return state, rigid
+        if tol != pytest.approx(floor):
+            return spring_state(bed, rigid)
+        if not first:
+            first.append(rigid[1:].copy())
+        # Φ = … − ½ slack: every state at the floor but the first far above the first's
+        slack = 0.0 if np.array_equal(rigid[1:], first[0]) else -1e3 * P * bed.extent
+        return spring_state(bed, rigid, JITTER * tol * P * bed.extent, slack)
 
     centred = outer - outer.mean(axis=0)
     stiffness = lambda active: (K * centred.T @ centred, 0)               # noqa: E731

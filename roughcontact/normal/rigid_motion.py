@@ -115,6 +115,10 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
     history: list[float] = []
     spent = {"outer": 0, "linear": 0}                  # evaluations and linear iterations, all counted
 
+    def relative(force: np.ndarray) -> float:
+        """The load residual: the largest of F over its scale (P; P × half-size for moments)."""
+        return float(np.max(np.abs(force) / scale))
+
     def evaluated(r, needed):
         """(state, r, Φ, F) at r resolved for ``needed``, its iterations counted."""
         result = _evaluate(problem, r, free, outer, loads, evaluate, needed)
@@ -125,11 +129,11 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
     needed = np.inf                                    # the load residual the state was resolved for
     state, rigid, phi, force = evaluated(rigid, needed)
     for newton in range(1, max_newton + 1):
-        error = float(np.max(np.abs(force) / scale))
+        error = relative(force)
         if error <= load_tol and looser(needed, load_tol):   # met on a state resolved more loosely:
             needed = load_tol                                # confirm on one resolved for load_tol
             state, rigid, phi, force = evaluated(rigid, needed)
-            error = float(np.max(np.abs(force) / scale))
+            error = relative(force)
         history.append(error)
         if error <= load_tol:
             return state._replace(outer=spent["outer"], linear=spent["linear"], history=tuple(history),
@@ -144,11 +148,12 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
             trial = rigid.copy()
             trial[outer] = rigid[outer] + alpha * step
             t_state, t_rigid, t_phi, t_force = evaluated(trial, error)
+            t_error = relative(t_force)
             # Armijo on Φ; near the solution Φ's decrease is below its round-off, and a
             # decrease of the load residual itself is accepted instead — only while Φ does not
             # rise above its round-off: the two criteria otherwise take turns and cycle
             if (t_phi <= phi + 1e-4 * alpha * slope
-                    or (np.max(np.abs(t_force) / scale) <= 0.5 * error and t_phi <= phi + PHI_ROUNDOFF * abs(phi))
+                    or (t_error <= 0.5 * error and t_phi <= phi + PHI_ROUNDOFF * abs(phi))
                     or alpha < 1e-6):
                 break
             alpha *= 0.5
@@ -177,7 +182,7 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
         moved = float(np.max(np.abs(alpha * newton_step) / units))
         radius = 4.0 * radius if alpha == 1.0 and moved >= 0.99 * radius else max(moved, 1e-3)
         rigid, state, phi, force, needed = t_rigid, t_state, t_phi, t_force, error
-        if float(np.max(np.abs(force) / scale)) > max(load_tol, 0.5 * error) and lowered(error):
+        if t_error > max(load_tol, 0.5 * error) and lowered(error):
             # a step from a state resolved at the floor that did not halve the residual nor meet
             # load_tol: near the solution Newton's steps leave about e², so the states' moments
             # are off by more than the steps gain. Resolve the new state below the lowered floor

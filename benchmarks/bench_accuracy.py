@@ -40,8 +40,7 @@ DENSE_LARGEST = 128 * 128
 
 
 def settings(method: str, tol: float) -> dict:
-    from roughcontact.normal import ActiveSetSettings
-    from roughcontact.normal.constrained_cg import CGSettings
+    from roughcontact.normal import ActiveSetSettings, CGSettings
 
     if method == "cg":
         return {"settings": CGSettings(tol=tol, load_tol=tol)}
@@ -98,8 +97,7 @@ def rough_scene(args, rows: list[dict]) -> None:
     from mpi4py import MPI
 
     from roughcontact.materials import Interface, Material
-    from roughcontact.normal import NormalProblem, make_solver
-    from roughcontact.normal.constrained_cg import CGSettings
+    from roughcontact.normal import CGSettings, NormalProblem, make_solver
 
     problem = NormalProblem(fine, Interface(Material(1.0, 0.0)), MPI.COMM_SELF, operator="fft")
     with make_solver(problem, "cg", settings=CGSettings(tol=1e-10, load_tol=1e-10)) as solver:

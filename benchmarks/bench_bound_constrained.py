@@ -121,8 +121,7 @@ def main() -> None:
     from mpi4py import MPI
 
     from roughcontact.materials import Interface, Material
-    from roughcontact.normal import NormalProblem, make_solver
-    from roughcontact.normal.constrained_cg import CGSettings
+    from roughcontact.normal import CGSettings, NormalProblem, make_solver
 
     comm = MPI.COMM_WORLD
     rows = []

@@ -112,7 +112,7 @@ SHAPES = {"scene": {}, "full": {"fractal_dimension": 2.5}}
 def worker(args) -> None:
     MPI = worker_mpi()
 
-    from roughcontact.normal.constrained_cg import CGSettings
+    from roughcontact.normal import CGSettings
     from roughcontact.operators.convolution import SlabConvolution
     from roughcontact.operators.heap import hold_touched_pages
 
@@ -165,8 +165,7 @@ def worker(args) -> None:
 
 def sweep_rows(comm, args) -> list[dict]:
     """The 10-step sweep to fP at ``args.sweep``² for each precision."""
-    from roughcontact.normal import NormalProblem, make_solver
-    from roughcontact.normal.constrained_cg import CGSettings
+    from roughcontact.normal import CGSettings, NormalProblem, make_solver
     from roughcontact.tangential import tangential_sweep
 
     n = args.sweep
@@ -203,7 +202,7 @@ def sweep_rows(comm, args) -> list[dict]:
 
 
 def main() -> None:
-    from roughcontact.normal.constrained_cg import CGSettings
+    from roughcontact.normal import CGSettings
     from roughcontact.operators.preconditioner import EDGE_SHARE
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])

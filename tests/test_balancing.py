@@ -17,8 +17,7 @@ from mpi4py import MPI
 
 from roughcontact.errors import InputError
 from roughcontact.materials import Interface, Material
-from roughcontact.normal import NormalProblem, make_solver
-from roughcontact.normal.constrained_cg import CGSettings
+from roughcontact.normal import CGSettings, NormalProblem, make_solver
 from roughcontact.operators.balancing import BALANCING_FROM, BalancingSpace
 from roughcontact.operators.flexibility import Flexibility
 from roughcontact.surfaces import Topography, fourier_surface

@@ -8,7 +8,7 @@ from scipy import ndimage
 
 from roughcontact.errors import InputError
 from roughcontact.materials import Interface, Material
-from roughcontact.normal.constrained_cg import CGSettings
+from roughcontact.normal import CGSettings
 from roughcontact.operators.flexibility import Flexibility
 from roughcontact.operators.holes import DUST, HOLE_BLOCK, HOLE_SPAN, HoleCharge, block_side, enclosed
 from roughcontact.surfaces import Topography

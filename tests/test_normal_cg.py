@@ -16,8 +16,7 @@ from petsc4py import PETSc
 from roughcontact.collective import DestroyedError
 from roughcontact.errors import ConvergenceError, InputError
 from roughcontact.materials import Interface, Material
-from roughcontact.normal import NormalProblem, make_solver
-from roughcontact.normal.constrained_cg import CGSettings
+from roughcontact.normal import CGSettings, NormalProblem, make_solver
 from roughcontact.references import hertz
 from roughcontact.surfaces import Topography, disc, fourier_surface
 

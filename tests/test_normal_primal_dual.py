@@ -15,8 +15,7 @@ from mpi4py import MPI
 from test_normal_cg import FLAT, assert_same_state, rough, solve
 
 from roughcontact.errors import InputError
-from roughcontact.normal import NormalProblem, make_solver, primal_dual
-from roughcontact.normal.constrained_cg import CGSettings
+from roughcontact.normal import CGSettings, NormalProblem, make_solver, primal_dual
 
 #: a mean pressure of E* closes 89 % of rough(160, 2)'s nodes; its coarse level's start (80², one
 #: level below) holds 92 % (the punches' start on a grid without a coarse level holds far fewer:

@@ -17,7 +17,7 @@ import pytest
 
 from roughcontact.errors import InputError
 from roughcontact.materials import Interface, Material
-from roughcontact.normal.constrained_cg import CGSettings
+from roughcontact.normal import CGSettings
 from roughcontact.operators.flexibility import Flexibility
 from roughcontact.operators.kernel import punch_kernel
 from roughcontact.operators.preconditioner import EDGE_CAP, EDGE_SHARE, embedding_period

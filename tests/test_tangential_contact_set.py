@@ -14,8 +14,7 @@ from mpi4py import MPI
 
 from roughcontact.errors import InputError
 from roughcontact.materials import Interface, Material
-from roughcontact.normal import NormalProblem, make_solver
-from roughcontact.normal.constrained_cg import CGSettings
+from roughcontact.normal import CGSettings, NormalProblem, make_solver
 from roughcontact.surfaces import Topography, fourier_surface
 from roughcontact.tangential import CattaneoSolver, tangential_sweep
 from roughcontact.tangential.contact_set import ContactSetSolver, contact_set_pays

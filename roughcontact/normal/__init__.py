@@ -1,7 +1,8 @@
 """Normal contact of a composite topography against an elastic half-space (§2–§3.1)."""
 from .active_set import ActiveSetSettings, ActiveSetSolver
+from .cg_settings import CGSettings
 from .choice import METHODS
-from .constrained_cg import CGSettings, ConstrainedCGSolver
+from .constrained_cg import ConstrainedCGSolver
 from .factory import make_solver, solve_closures, solve_loads
 from .fields import gather_result, write_result
 from .problem import NormalProblem

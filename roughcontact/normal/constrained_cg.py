@@ -76,16 +76,17 @@ contact set with FFTs); J.J. Moré, G. Toraldo, SIAM J. Optim. 1 (1991)
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
 from ..errors import ConvergenceError, InputError
 from ..operators import passes
-from ..operators.balancing import BALANCING_FROM, BALANCING_SHARE, BalancingSpace
+from ..operators.balancing import BALANCING_SHARE, BalancingSpace
 from ..operators.convolution import dense
 from ..operators.holes import HoleCharge
-from ..operators.preconditioner import EDGE_SHARE, EDGE_UPDATES, EdgeWeights
+from ..operators.preconditioner import EDGE_UPDATES, EdgeWeights
+from .cg_settings import CGSettings
 from .nested import COARSE_TOL, NestedStart
 from .primal_dual import PRIMAL_DUAL_SHARE, settle
 from .problem import NormalProblem
@@ -95,8 +96,6 @@ from .solver import NormalSolver
 
 _log = logging.getLogger(__name__)
 
-PRECONDITIONERS = ("fourier", "none")
-PRECISIONS = ("mixed", "double")
 #: the residual (relative to the scale of w) below which single-precision products can stop it
 #: falling: they stalled it at 1e-7 to 8e-7 near full contact (512²), so 1e-5 leaves a factor 10
 SINGLE_FLOOR = 1e-5
@@ -114,258 +113,6 @@ DEFER_FROM = 512 * 512
 #: that 1e-3 of those residuals, the inexact Newton's rule for the states it steps from; the
 #: solver's tol took 22 and 19 CG iterations there, 1e-5 14 and 12, with the same Newton steps
 FIRST_TOL = 1e-5
-#: the levels (nodes) from which a fresh start near full contact settles its set by the primal–dual
-#: active set (``CGSettings.primal_dual_from``)
-PRIMAL_DUAL_FROM = 512 * 512
-
-
-@dataclass(frozen=True)
-class CGSettings:
-    """Tolerances and limits of the bound-constrained CG.
-
-    tol
-        The contact conditions hold when |g| ≤ tol · (scale of w) on S and
-        g ≥ −tol · (scale of w) off S; the loads hold to round-off.
-    max_iterations
-        CG iterations allowed before raising.
-    preconditioner
-        ``"fourier"`` (default) or ``"none"`` (Polonsky & Keer's original).
-    refresh
-        Recompute H p from scratch every this many iterations without a change
-        of S (otherwise it is updated by the step, which accumulates round-off).
-    restart
-        Restart the conjugate directions where the new gap is far from
-        orthogonal to the last preconditioned one, |g_kᵀ z_{k−1}| ≥
-        ``restart`` · g_kᵀ z_k (Powell's test; on a fixed set CG keeps
-        g_kᵀ z_{k−1} = 0): a change of the free set spoils conjugacy in
-        proportion to what it changes in the gap, not to how many nodes it
-        moves. It replaced a restart when more than 1 % of the set changed,
-        which near full contact (Δ = 2.5, 1 E*; sets of 3.6 M nodes at
-        2048²) let 10–40 k nodes change per iteration without a restart while
-        the residual rose from 8e-4 to 2e-2, and restarted through the first
-        39 iterations. Fine iterations (coarse in brackets), 1 % of the set →
-        Powell's test at 0.2: near full contact 256² / 512² / 1024² / 2048²
-        31 / 40 / 56 / 147 (84) → 32 / 38 / 44 / 63 (30); the large-grid
-        scene 512² to 2048² 15 / 17 / 25 both, 4096² 39 (20) → 36 (15); the
-        stability map 2928 → 2781 iterations, 120 / 120 converged, no cell
-        above 1.09 times. 0.1 / 0.3 / 0.5: near full contact at 1024² 47 /
-        48 / 51, the scene at 2048² 25 / 25 / 31. Both tests together (1 %
-        and 0.2): near full contact at 2048² 80; 5 % and 0.2: 71, 4096² 35.
-        Polak–Ribière's β (which also weighs g_kᵀ z_{k−1}) instead of
-        Fletcher–Reeves': no fewer anywhere.
-    renew
-        Also restart on an iteration whose free set changed once this many
-        iterations have passed since the last such restart (or one at a
-        convergence check): small changes that each pass ``restart``
-        otherwise accumulate into directions that are far from conjugate,
-        and the iteration crawls even after the set has settled (at 2048²,
-        0.83 per iteration for 15 iterations on a fixed set; 57 iterations
-        where renewing every 8 took 28). It made no difference from 256² to
-        1024². Powell's restarts do not reset this count: resetting it took
-        near full contact at 1024² / 2048² 44 / 63 → 48 / 68 fine
-        iterations and the scene at 2048² 25 → 27. The renewal waits for a
-        change of the set: restarting 8 iterations after any change, also
-        on a set that had stopped changing, threw away directions conjugate
-        on it (near full contact at 1024², a restart 4 iterations after the
-        last change took the residual from 4.7e-8 to 3.1e-8 and 2.4e-8 in
-        the next two). Near full contact at 1024² / 2048² 38 / 55 → 36 / 53
-        fine iterations, the scene at 1024² / 2048² / 4096² 17 / 24 / 32
-        both; the stability map 2201 → 2170, 120 / 120, per cell 0.92–1.07.
-    load_tol, max_newton
-        Free rotation: the moment residual allowed (relative to P times the
-        footprint's half-size) and the Newton steps on (θx, θy) (:mod:`.rigid_motion`).
-    edge_share
-        The share of the Fourier preconditioner's edge term removed on the
-        boundary nodes of the free set (:mod:`~roughcontact.operators.preconditioner`;
-        0 for the plain R_S C⁻¹ R_Sᵀ). Its weights follow the free set: one
-        periodic product where it changed by more than one node in 1000, else
-        windows of C⁻¹ around the nodes that changed
-        (:class:`~roughcontact.operators.preconditioner.EdgeWeights`). Whole solves of the
-        large-grid scene (fine iterations, 0 → 0.8): 256² 16 → 14,
-        512² 19 → 15, 1024² 22 → 17, 2048² 35 → 27, 4096² 54 → 42; near
-        full contact (Δ = 2.5, 1 E*) 46 → 34, 70 → 44, 81 → 71 (256² to
-        1024²). Where the residual reaches no new lowest value for 2 × ``renew``
-        iterations above SINGLE_FLOOR (the free set cycling: near full contact
-        at 1024², Δ = 2.8) the rest of the solve takes the plain one.
-        docs/solver-cost.md, "The edge correction".
-    hole_block
-        The side (nodes) of the blocks on which the preconditioner takes back
-        the edge charge left on the rims of holes, the parts of the outside of
-        the free set that touch no edge of the grid
-        (:mod:`~roughcontact.operators.holes`); 0: not taken back. Taken on
-        the iterations whose free set changes by at most one node in
-        EDGE_UPDATES, the directions restarting where it starts or stops:
-        taken while the set moved, near full contact at 1024² wandered (61
-        fine iterations against 36). The holes and rims are found again
-        where the charge starts and whenever the edge weights take a
-        product while it is taken (finding them again only on a product
-        left rims found before the set last moved: the same counts on the
-        scenes below, the residual at the end 6.22e-9 → 6.57e-9 on the
-        scene at 2048²). Whole solves near full
-        contact (Δ = 2.5, 1 E*), 0 → 64: 256² 20 → 18, 512² 26 → 23, 1024²
-        36 → 32, 2048² 53 → 44; the large-grid scene 24 → 23 at 2048², 32 →
-        31 at 4096²; the stability map 2170 → 2108, 120 / 120. Where the
-        holes hold most of the outside (near full contact,
-        :data:`~roughcontact.operators.holes.DUST`) the blocks that are
-        mostly holes take it on all their nodes of the set: near full contact
-        256² to 4096² 18 / 22 / 29 / 37 / 52 → 19 / 21 / 27 / 34 / 48, the
-        scene unchanged; the stability map 2081 → 2070, 120 / 120.
-        None (the default): HOLE_BLOCK = 64, or the grid's longer side over
-        HOLE_SPAN = 32 where that is more
-        (:func:`~roughcontact.operators.holes.block_side`).
-    defer
-        The far fields of the forces a cut restores wait (only their near
-        field, 32 nodes around each, is added to H p at once) while
-        ``far_bound`` × their sum, the most they can add to the gap of any
-        node, stays at most ``defer`` × the root mean square of the gap on the
-        free set; then one product settles them all with the cut that passed
-        the bound (:mod:`~roughcontact.operators.near_field`). An exact H p
-        (a refresh) forgets them. At most one node in DEFER_NODES waits, and
-        only on grids of DEFER_FROM nodes or more. 0: every cut takes its
-        product at once. Padded products of whole solves
-        (fine iterations), 0 → 1: the large-grid scene at 512² 21 → 18 (15 →
-        15), 1024² 26 → 22 (17 → 17), 2048² 46 → 34 (27 → 26), 4096² 75 → 63
-        (42 → 41); near full contact (Δ = 2.5, 1 E*) 512² 60 → 52 (44 →
-        44), 1024² 118 → 101 (69 → 68). A bound of 0.25 × the largest gap
-        error instead (the residual) let 4096² wander for 35 iterations (80
-        against 42): the far fields reach every node, the residual only a few.
-        Where a confirmation of convergence fails with far fields deferred,
-        the rest of the solve settles every cut at once (still in single
-        precision: the deferred fields, not the precision, may have failed it).
-    precision
-        ``"mixed"`` (default): the product H d of each search direction, the
-        product H c of the forces a cut restores, and the preconditioner in
-        single precision (0.5–0.7 of the time of a double FFT product,
-        :mod:`~roughcontact.operators.convolution`); the products H p of the
-        forces themselves — the first, every ``refresh`` and the confirmation
-        of convergence — in double, except on the coarse levels of a nested
-        start with the rotation fixed (tolerance COARSE_TOL): there a single
-        product's error is 1000 times below the tolerance. The error of a
-        single product, ~1e-7 of its scale, enters the gap only through the
-        increments α H d and H c, which shrink with the residual; the
-        residual a solve reports is measured on a double H p, so the
-        precision cannot loosen it. These errors pile up in the updated H p
-        with the size of the steps since the last exact one, and the first
-        steps are of the size of the starting gap: H p is taken again in
-        double once, when the residual first reaches SINGLE_FLOOR, so that
-        only the errors of the later, smaller steps remain. Near full contact
-        (Δ = 2.5, 1 E*) the residual stalled at 4e-8 for 8 iterations at
-        1024² without it (256² / 512² / 1024² 35 / 43 / 64 → 31 / 40 / 56
-        fine iterations; 2048² 146 → 147); the stability map 3210 → 2928
-        iterations, no cell more (benchmarks/bench_stability.py).
-        Where that fails the rest of the solve is taken in double: when the
-        residual has not reached a new lowest value for ``renew``
-        iterations once it is below SINGLE_FLOOR (1e-5; near full contact the
-        single products stall it at ~1e-7; above that a rise is the contact
-        set settling) or for 4 × ``renew`` iterations anywhere, or when the
-        exact confirmation of convergence
-        disagrees with the updated gap (tolerances near 1e-11).
-        ``"double"``: every product in double precision.
-    alternate_return
-        A node that has left the contact set during the solve comes back
-        into the free set only on every other iteration, by the colour of
-        its square on the grid's checkerboard ((i + j) mod 2 against the
-        iteration's parity): two side-by-side nodes that left never come back
-        in the same iteration. After a nested start the set churns more than
-        it moves: near full contact at 1024² (Δ = 2.5, 1 E*) the fine level's
-        contact set took 183 k entries and exits for a net change of 41 k
-        nodes; 49 k nodes changed twice or more, and from the third step on
-        98–100 % of the nodes entering had left before. Nodes entering for
-        the first time are not held: from a cold start the set must grow
-        (holding every entering node every other iteration took the
-        stability map's 64² / 128² cold solves from 293 / 376 to 336 / 448
-        fine iterations). Fine iterations, off → on: near full contact 256²
-        / 512² / 1024² / 2048² 18 / 23 / 32 / 44 → 18 / 22 / 29 / 37; the
-        large-grid scene 256² to 4096² 14 / 14 / 17 / 23 / 31 → 14 / 15 /
-        17 / 21 / 31 (coarse at 4096² 16 → 14); the stability map 2108 →
-        2082, 120 / 120, per cell 0.72–1.20, at 1024² 597 → 561. The step
-        scaled by 0.99 or 1.01 where the set changed moved the counts by at
-        most 1 (near full contact at 1024² and 2048², the scene at 4096²;
-        docs/solver-cost.md, "Nodes that leave and come back").
-    balancing_from
-        Levels of at least this many nodes add the balancing coarse space on
-        BALANCING_PARTS² blocks of the set (:mod:`~roughcontact.operators.balancing`):
-        P = Z E⁻¹ Zᵀ + (I − Z E⁻¹ Wᵀ) M (I − W E⁻¹ Zᵀ) around the preconditioner M,
-        with W = C Z made by one periodic product per block where the hole
-        charge is first taken. Only on a free set of at most BALANCING_SHARE of
-        the grid's nodes, and in solves from a fresh start (a coarse grid's or
-        the punches'), whose free-rotation evaluations share it; a warm start
-        has little left to settle. Only with the hole charge (``hole_block`` not
-        0) and the edge correction. None: never. The large-grid scene, fine iterations
-        (one rank): 4096² 29 / 30 / 25 → 25 / 25 / 23 on three surfaces (with
-        the space from 2048² up, 2048² 21 → 20 and no faster); near full
-        contact no space is made (docs/solver-cost.md, "A balancing coarse
-        space on blocks of the set").
-    primal_dual_from
-        Levels of at least this many nodes whose fresh start (a coarse
-        grid's or the punches') holds at least PRIMAL_DUAL_SHARE of their
-        nodes in contact settle the set by the primal–dual active set first
-        (:mod:`.primal_dual`): each set held while the CG solves on it to a
-        share of its residual, then moved at once; where that gives up
-        (a set cycling) the constrained CG goes on from its forces. With the
-        rotation free, only the Newton's first evaluation (the later ones
-        start warm): near full contact at 2048² 39.6 s against 42.7 s, 72
-        fine iterations against 74 (medians of 2, alternated), at 1024²
-        10.9 s against 11.2 s (3). None: never. Near full contact (Δ =
-        2.5, 1 E*, seed 1), CG steps / sets (fine iterations, which count
-        each set's exact H p too) against the
-        constrained CG's fine iterations: 512² 21 / 6 (28) against 21, 1024²
-        24 / 6 (31) against 27, 2048² 27 / 7 (35) against 34, 4096² 33 / 8
-        (42) against 47. One rank, the two alternated in one process: 512²
-        0.74 s against 0.86 s, 1024² 3.0–3.2 s against 3.6–3.8 s, 2048²
-        15.1–16.6 s against 19.9–20.6 s (three surfaces), 4096² 85 s against
-        158 s; the large-grid scene's sparse starts never take it
-        (docs/solver-cost.md, "The contact set settled by a primal–dual
-        active set").
-    """
-
-    tol: float = 1e-8
-    max_iterations: int = 5000
-    preconditioner: str = "fourier"
-    refresh: int = 50
-    restart: float = 0.2
-    renew: int = 8
-    load_tol: float = 1e-8
-    max_newton: int = 50
-    precision: str = "mixed"
-    edge_share: float = EDGE_SHARE
-    hole_block: int | None = None
-    defer: float = 1.0
-    alternate_return: bool = True
-    balancing_from: int | None = BALANCING_FROM
-    primal_dual_from: int | None = PRIMAL_DUAL_FROM
-
-    def __post_init__(self):
-        if self.preconditioner not in PRECONDITIONERS:
-            raise InputError("preconditioner", f"must be one of {', '.join(PRECONDITIONERS)}, "
-                                               f"got {self.preconditioner!r}")
-        if self.precision not in PRECISIONS:
-            raise InputError("precision", f"must be one of {', '.join(PRECISIONS)}, got {self.precision!r}")
-        if not 0.0 <= self.restart:
-            raise InputError("restart", f"must be >= 0 (Powell's test: the directions restart where |g_kᵀ "
-                                        f"z_k-1| >= restart · g_kᵀ z_k; 0: every step), got {self.restart!r}")
-        if not 0.0 <= self.defer < np.inf:
-            raise InputError("defer", f"must be a finite share >= 0 of the gap's root mean square (0: "
-                                      f"every cut takes its product at once), got {self.defer!r}")
-        if not 0.0 <= self.edge_share < 1.0:
-            raise InputError("edge_share", f"must be in [0, 1) (1 removes the whole edge term and leaves "
-                                           f"isolated nodes without a scaling), got {self.edge_share!r}")
-        if not isinstance(self.alternate_return, (bool, np.bool_)):
-            raise InputError("alternate_return", f"must be True or False, got {self.alternate_return!r}")
-        _check_optional_count("hole_block", self.hole_block, 0, "the grid's own",
-                              "the side of the blocks of the hole charge, 0: none")
-        _check_optional_count("balancing_from", self.balancing_from, 1, "no coarse space",
-                              "the nodes from which a level takes it")
-        _check_optional_count("primal_dual_from", self.primal_dual_from, 1, "never",
-                              "the nodes from which a level near full contact takes it")
-
-
-def _check_optional_count(name: str, value, minimum: int, none: str, meaning: str) -> None:
-    """``value`` is None (``none``) or an integer ≥ ``minimum`` (``meaning``), not a bool."""
-    if value is None or (isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
-                         and value >= minimum):
-        return
-    raise InputError(name, f"must be None ({none}) or an integer >= {minimum} ({meaning}), got {value!r}")
 
 
 class ConstrainedCGSolver(NormalSolver):

@@ -3,12 +3,15 @@
 
 A study's default load control finds the rotation from zero moments (Eqs. 7-8): an inexact
 Newton on (θx, θy) whose every evaluation is a load-controlled CG solve at a fixed rotation
-(roughcontact/normal/rigid_motion.py). Three parts, one rank, the CG on the FFT operator:
+(roughcontact/normal/rigid_motion.py), or, near full contact on levels of 256² nodes or more, the
+primal–dual steps with the moments as constraints of each set's solve
+(roughcontact/normal/primal_dual.py). Three parts, one rank, the CG on the FFT operator:
 
 - **scenes**: the large-grid scene (0.01 E*) and near full contact (Δ = 2.5, 1 E*) of
   benchmarks.bench_products, solved with the rotation free and fixed: fine and coarse
-  iterations (the free rotation's include its Hessians' Krylov iterations), Newton evaluations,
-  the moments left over P × extent, the rotation, seconds (median of ``--repeats``);
+  iterations (the free rotation's include its Hessians' Krylov iterations), the outer
+  iterations (the Newton's evaluations, or the primal–dual passes that found the rotation), the
+  moments left over P × extent, the rotation, seconds (median of ``--repeats``);
 - **sweeps**: an ensemble's task (:func:`benchmarks.common.ensemble_task`: 12 warm-started
   loads on a midpoint surface), rotation free, for each seed: linear iterations summed over the
   loads (fine, coarse and Hessians'), Newton evaluations, the largest moments left, seconds;
@@ -54,7 +57,7 @@ def scenes(sizes, repeats, comm, rows) -> None:
                     times.append(time.perf_counter() - t0)
                 row = {"part": "scenes", "scene": scene, "n": n, "rotation": "free" if free else "fixed",
                        "fine_iterations": result.linear_iterations, "coarse_iterations": result.coarse_iterations,
-                       "newton_evaluations": result.outer_iterations if free else None,
+                       "outer_iterations": result.outer_iterations,
                        "moments_left": moments_left(result, problem) if free else None,
                        "rotation_found": list(result.rotation) if free else None,
                        "seconds": float(np.median(times))}

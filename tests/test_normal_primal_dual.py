@@ -21,8 +21,8 @@ from roughcontact.normal import CGSettings, NormalProblem, make_solver, primal_d
 #: level below) holds 92 % (the punches' start on a grid without a coarse level holds far fewer:
 #: 28 % of rough(64, 5)'s nodes at E*, whose solution closes 90 %)
 NEAR_FULL = 1.0
-SETTLING = CGSettings(primal_dual_from=1)          # every level near full contact takes it
-WITHOUT = CGSettings(primal_dual_from=None)
+SETTLING = CGSettings(primal_dual_from=1, rotation_from=1)    # every level near full contact takes it
+WITHOUT = CGSettings(primal_dual_from=None, rotation_from=None)
 
 
 def near_full_problem(comm, n: int = 160, seed: int = 2) -> NormalProblem:
@@ -77,37 +77,102 @@ def test_displacement_control_settles_to_the_active_sets_state(comm, rotation):
     problem.destroy()
 
 
-def test_a_free_rotation_settles_its_first_evaluation(comm, caplog):
-    """Zero moments imposed, the rotation found by the Newton: its first evaluation (a fresh
-    start) takes the primal–dual steps, and the state is the active set's, moments within the
-    Newton's load_tol of P times the footprint's half-size."""
+@pytest.mark.parametrize("moments", [(0.0, 0.0), (0.02, -0.01)])
+def test_a_free_rotation_is_found_with_the_forces(comm, caplog, moments):
+    """Load control with the rotation free (zero moments, and the load point moved 0.01 and 0.02
+    off the centroid): the primal–dual steps find (δz, θx, θy) with the forces, the moments two
+    more constraints of each set's projected CG, and no Newton evaluation follows (every fine
+    step is a primal–dual one). The state is the active set's, whose damped Newton on (δz, θx,
+    θy) is another code, and so is the rotation, to 1e-6 as in test_normal_cg.py. The loads hold
+    to round-off, Σ p = P and the moments to 1e-12 of P times the extent: the projection keeps
+    C_Sᵀ p at the loads along every step (the sums of 25 600 forces round at about 1e-14)."""
     problem = near_full_problem(comm)
-    control = lambda s: s.solve_load(NEAR_FULL)    # noqa: E731
+    control = lambda s: s.solve_load(NEAR_FULL, moments=moments)    # noqa: E731
     reference = solve(problem, "ksp", control)
     with caplog.at_level(logging.DEBUG, logger="roughcontact.normal.constrained_cg"):
         result = solve(problem, "cg", control, settings=SETTLING)
     steps = fine_steps(caplog, problem.size)
-    assert any("primal-dual" in step["restart"] for step in steps)
-    assert any("primal-dual" not in step["restart"] for step in steps)      # the later evaluations
+    assert steps and all("primal-dual" in step["restart"] for step in steps)
+    assert result.outer_iterations > 1
     assert_same_state(reference, result)
-    bound = CGSettings().load_tol * reference.load * problem.extent
-    np.testing.assert_allclose(result.moments, (0.0, 0.0), rtol=0, atol=bound)
+    np.testing.assert_allclose(result.rotation, reference.rotation, rtol=1e-6)
+    assert result.load == pytest.approx(NEAR_FULL, rel=1e-12)
+    np.testing.assert_allclose(result.moments, moments, rtol=0, atol=1e-12 * NEAR_FULL * problem.extent)
+    assert_contact_conditions(problem, result, NEAR_FULL)
     problem.destroy()
 
 
-def test_the_same_state_on_one_and_all_ranks(comm):
+def test_a_free_rotation_that_does_not_settle_goes_on_by_the_newton(comm, monkeypatch, caplog):
+    """The primal–dual steps given up after one pass (MAX_SETS = 1) with the rotation free: the
+    Newton on θ goes on from their forces (the trace: primal–dual steps, then the CG's evaluations)
+    and reaches the active set's state, its moments within the Newton's load_tol of P times the
+    extent, the products of the steps given up counted with the rest."""
+    problem = near_full_problem(comm)
+    control = lambda s: s.solve_load(NEAR_FULL, moments=(0.02, -0.01))    # noqa: E731
+    reference = solve(problem, "ksp", control)
+    monkeypatch.setattr(primal_dual, "MAX_SETS", 1)
+    with caplog.at_level(logging.DEBUG, logger="roughcontact.normal.constrained_cg"):
+        handed = solve(problem, "cg", control, settings=SETTLING)
+    marked = ["primal-dual" in step["restart"] for step in fine_steps(caplog, problem.size)]
+    assert marked[0] and not marked[-1]
+    # the first evaluation at a fixed θ takes the primal-dual steps too (and gives up again)
+    given_up = sum(marked)
+    assert handed.linear_iterations > given_up
+    assert_same_state(reference, handed)
+    np.testing.assert_allclose(handed.rotation, reference.rotation, rtol=1e-6)
+    bound = CGSettings().load_tol * NEAR_FULL * problem.extent
+    np.testing.assert_allclose(handed.moments, (0.02, -0.01), rtol=0, atol=bound)
+    problem.destroy()
+
+
+def test_the_rigid_motions_fit_on_a_set(comm):
+    """primal_dual._Motion with the moments imposed, on half the nodes of a grid (none of the last
+    rank's on two ranks), against closed forms: the fit of a rigid field C_S r is r; a projected
+    vector has C_Sᵀ v = 0; restored forces hold the loads (Σ p, Σ p·(−y), Σ p·(−x)). To 1e-12
+    (of the terms' count for C_Sᵀ v): sums of up to 3 200 terms of size 1 round at about 1e-14,
+    and the 3 × 3 Gram matrix's condition (about 30 here) multiplies that."""
+    problem = near_full_problem(comm, 80)
+    rng = np.random.default_rng(comm.Get_rank())
+    share = 0.0 if comm.Get_size() > 1 and comm.Get_rank() == comm.Get_size() - 1 else 0.5
+    nodes = np.flatnonzero(rng.random(problem.local_size) < share)
+    loads = np.array([1.0, 0.02, -0.01])
+    motion = primal_dual._Motion(problem, loads[0], loads, problem.flexibility.workers)
+    motion.on(nodes)
+    x, y = problem.x[nodes], problem.y[nodes]
+    r = np.array([0.3, -0.7, 1.1])
+    rigid = r[0] - r[1] * y - r[2] * x
+    np.testing.assert_allclose(motion.fit(rigid), r, rtol=1e-12)
+
+    def transposed(v):
+        return problem.allsum(np.array([v.sum(), -(v @ y), -(v @ x)]))
+
+    v = rng.random(nodes.size)
+    motion.project(v)
+    np.testing.assert_allclose(transposed(v), 0.0, atol=1e-12 * float(problem.allsum(nodes.size)))
+    forces = np.zeros(problem.local_size)
+    forces[nodes] = rng.random(nodes.size)
+    motion.restore(forces)
+    np.testing.assert_allclose(transposed(forces[nodes]), loads, rtol=0, atol=1e-12)
+    problem.destroy()
+
+
+@pytest.mark.parametrize("control", [lambda s: s.solve_load(NEAR_FULL, rotation=(0.0, 0.0)),
+                                     lambda s: s.solve_load(NEAR_FULL, moments=(0.02, -0.01))],
+                         ids=["rotation fixed", "moments imposed"])
+def test_the_same_state_on_one_and_all_ranks(comm, control):
     """COMM_SELF and COMM_WORLD: the same sets visited and the same state (the reductions differ
-    in order only)."""
+    in order only), and with the moments imposed the same rotation, to 1e-6 as against the active
+    set (each meets the same tolerance)."""
     if comm.Get_size() == 1:
         pytest.skip("one rank: COMM_WORLD is COMM_SELF (the suite runs again on two)")
     results = []
     for c in (MPI.COMM_SELF, comm):
         problem = near_full_problem(c, 144, seed=5)
-        results.append(solve(problem, "cg", lambda s: s.solve_load(NEAR_FULL, rotation=(0.0, 0.0)),
-                             settings=SETTLING))
+        results.append(solve(problem, "cg", control, settings=SETTLING))
         problem.destroy()
     assert results[0].outer_iterations == results[1].outer_iterations > 1
     assert_same_state(*results)
+    np.testing.assert_allclose(results[1].rotation, results[0].rotation, rtol=1e-6, atol=1e-15)
 
 
 def test_the_fine_level_settles_to_the_constrained_cgs_state(comm):
@@ -193,8 +258,9 @@ def test_the_trace_names_the_primal_dual_steps(comm, caplog):
     assert len(steps) + sets <= traced.linear_iterations <= len(steps) + traced.outer_iterations
 
 
+@pytest.mark.parametrize("name", ["primal_dual_from", "rotation_from"])
 @pytest.mark.parametrize("value", [0, -1, 1.5, True, "all"])
-def test_bad_primal_dual_from_is_named(value):
-    with pytest.raises(InputError, match="primal_dual_from"):
-        CGSettings(primal_dual_from=value)
+def test_bad_primal_dual_levels_are_named(name, value):
+    with pytest.raises(InputError, match=name):
+        CGSettings(**{name: value})
 

@@ -25,6 +25,9 @@ PRECISIONS = ("mixed", "double")
 #: the levels (nodes) from which a fresh start near full contact settles its set by the primal–dual
 #: active set (``CGSettings.primal_dual_from``)
 PRIMAL_DUAL_FROM = 512 * 512
+#: the levels (nodes) from which a fresh start near full contact finds a free rotation with the forces
+#: by the primal–dual steps (``CGSettings.rotation_from``)
+ROTATION_FROM = 256 * 256
 
 
 @dataclass(frozen=True)
@@ -211,10 +214,11 @@ class CGSettings:
         (:mod:`.primal_dual`): each set held while the CG solves on it to a
         share of its residual, then moved at once; where that gives up
         (a set cycling) the constrained CG goes on from its forces. With the
-        rotation free, only the Newton's first evaluation (the later ones
-        start warm): near full contact at 2048² 39.6 s against 42.7 s, 72
-        fine iterations against 74 (medians of 2, alternated), at 1024²
-        10.9 s against 11.2 s (3). None: never. Near full contact (Δ =
+        rotation free, on levels below ``rotation_from`` (or where the
+        steps that find it gave up), the Newton's first evaluation (the
+        later ones start warm): near full contact at 2048² 39.6 s against
+        42.7 s, 72 fine iterations against 74 (medians of 2, alternated), at
+        1024² 10.9 s against 11.2 s (3). None: never. Near full contact (Δ =
         2.5, 1 E*, seed 1), CG steps / sets (fine iterations, which count
         each set's exact H p too) against the
         constrained CG's fine iterations: 512² 21 / 6 (28) against 21, 1024²
@@ -225,6 +229,25 @@ class CGSettings:
         158 s; the large-grid scene's sparse starts never take it
         (docs/solver-cost.md, "The contact set settled by a primal–dual
         active set").
+    rotation_from
+        Under load control with the rotation free, levels of at least this
+        many nodes whose fresh start holds at least PRIMAL_DUAL_SHARE of their
+        nodes in contact find (δz, θx, θy) with the forces: the primal–dual
+        steps with the moments as two more constraints of each set's solve
+        (:mod:`.primal_dual`), instead of the Newton on θ around solves at a
+        fixed rotation (:mod:`.rigid_motion`: three or more evaluations and
+        two Hessians). Where those steps give up, the Newton goes on from
+        their forces. None: never. Near full contact (Δ = 2.5, 1 E*), one
+        rank, fine + coarse iterations and seconds against the Newton's
+        (alternated processes): 1024², seeds 1–3, 29 + 21, 26 + 18 and
+        26 + 21 against 58 + 44, 57 + 42 and 55 + 43, medians 1.76–2.01 s
+        against 3.37–3.90 s; 2048² 32 + 22 against 65 + 52, 9.2 / 9.5 s
+        against 17.6 / 17.8 s; 4096² 39 + 22 against 78 + 56, 49.8 s against
+        92.7 s. From 256² rather than 512²: 0.47–0.54 of the time at 256²
+        (three surfaces) and 0.52–0.61 on a map of four Δ at 0.3 and 1 E*
+        where the steps were taken, 0.85–0.86 at 512² and 0.94–0.95 at
+        1024² (docs/solver-cost.md, "A free rotation found with the forces
+        near full contact").
     """
 
     tol: float = 1e-8
@@ -242,6 +265,7 @@ class CGSettings:
     alternate_return: bool = True
     balancing_from: int | None = BALANCING_FROM
     primal_dual_from: int | None = PRIMAL_DUAL_FROM
+    rotation_from: int | None = ROTATION_FROM
 
     def __post_init__(self):
         if self.preconditioner not in PRECONDITIONERS:
@@ -266,6 +290,9 @@ class CGSettings:
                               "the nodes from which a level takes it")
         _check_optional_count("primal_dual_from", self.primal_dual_from, 1, "never",
                               "the nodes from which a level near full contact takes it")
+        _check_optional_count("rotation_from", self.rotation_from, 1, "never",
+                              "the nodes from which a level near full contact finds a free rotation "
+                              "with the forces")
 
 
 def _check_optional_count(name: str, value, minimum: int, none: str, meaning: str) -> None:

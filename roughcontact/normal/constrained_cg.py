@@ -51,7 +51,10 @@ Load control with free rotation (imposed moments) is a Newton iteration on
 (θx, θy) around this solve (:mod:`.rigid_motion`, whose Hessian needs two
 Krylov solves on the contact set at a constant load): imposing the moments
 as two more linear constraints inside the CG loses the support at small
-loads, where a handful of nodes must surround the load point.
+loads, where a handful of nodes must surround the load point. Near full
+contact (``CGSettings.rotation_from``) the set surrounds it, and the
+primal–dual steps find the rotation with the forces, the moments two more
+constraints of each set's solve (:mod:`.primal_dual`).
 
 It stops when the residual of the contact conditions,
 max(|g| on S, max(−g) off S) / (scale of w), is at most ``tol`` (the same
@@ -193,6 +196,14 @@ class ConstrainedCGSolver(NormalSolver):
         """The solve from the start (``forces``, ``motion``) :meth:`_start` gave."""
         if len(free) <= 1:
             return self._settled(rigid, free, loads, forces, forces_in_double=not self.coarse, owned=True)
+        unsettled = 0                                  # the products of primal-dual steps that gave up
+        if free == [0, 1, 2] and self._near_full(forces, self.settings.rotation_from):
+            # near full contact the primal–dual steps find the rotation with the forces, the moments
+            # two more constraints of each set's solve: no Newton iteration around the solves
+            settled = self._primal_dual(rigid, free, loads, forces, forces_in_double=not self.coarse)
+            if settled[0] is not None:
+                return settled[0]
+            forces, unsettled = settled[1], settled[2]
         # free rotation: Newton on (θx, θy), each evaluation a load-controlled solve at fixed θ
         rigid[free] = motion[free]
         state = {"forces": forces}
@@ -220,9 +231,10 @@ class ConstrainedCGSolver(NormalSolver):
             anchor.update(motion=state["motion"], forces=state["forces"])
             return matrix, its
 
-        return newton_on_motion(self.problem, rigid, free, [1, 2], loads, evaluate, stiffness,
-                                load_tol=self.settings.load_tol, max_newton=self.settings.max_newton,
-                                resolution=resolution, tighten=resolution.tighten)
+        state, rigid = newton_on_motion(self.problem, rigid, free, [1, 2], loads, evaluate, stiffness,
+                                        load_tol=self.settings.load_tol, max_newton=self.settings.max_newton,
+                                        resolution=resolution, tighten=resolution.tighten)
+        return (state._replace(linear=state.linear + unsettled) if unsettled else state), rigid
 
     def _settled(self, rigid, free, loads, forces, tol: float | None = None, forces_in_double: bool = True,
                  owned: bool = False):
@@ -231,7 +243,7 @@ class ConstrainedCGSolver(NormalSolver):
         precision too where ``forces_in_double`` is False); the CG then goes on only where that
         gave up, and the products of both count."""
         settled = None
-        if self._near_full(forces):
+        if self._near_full(forces, self.settings.primal_dual_from):
             if not owned:
                 forces = forces.copy()
             settled = self._primal_dual(rigid, free, loads, forces, tol, forces_in_double)
@@ -244,20 +256,21 @@ class ConstrainedCGSolver(NormalSolver):
             state = state._replace(linear=state.linear + settled[2])
         return state, rigid
 
-    def _near_full(self, forces: np.ndarray) -> bool:
-        """Whether this solve settles its set by the primal–dual active set first
-        (``CGSettings.primal_dual_from``): a fresh start on a level of that many nodes or more
-        with at least PRIMAL_DUAL_SHARE of them in contact (the same answer on every rank)."""
-        start = self.settings.primal_dual_from
+    def _near_full(self, forces: np.ndarray, start: int | None) -> bool:
+        """Whether this solve takes the primal–dual steps first from the levels of ``start`` nodes
+        (``CGSettings.primal_dual_from`` or ``rotation_from``; None: never): a fresh start on a
+        level of that many nodes or more with at least PRIMAL_DUAL_SHARE of them in contact (the
+        same answer on every rank)."""
         pb = self.problem
         return (start is not None and self._fresh and pb.size >= start
                 and float(pb.allsum(np.count_nonzero(forces > 0.0))) >= PRIMAL_DUAL_SHARE * pb.size)
 
     def _primal_dual(self, rigid, free, loads, forces, tol: float | None = None, forces_in_double: bool = True):
         """The primal–dual active set (:mod:`.primal_dual`) from the start ``forces`` (changed in
-        place) with the rotation fixed, to ``tol`` (None: the settings'): ((state, rigid), None,
-        products) where it met the tolerance, else (None, its forces clipped at zero for the
-        constrained CG, the products it took)."""
+        place), the components ``free`` of the rigid motion found with the forces (the approach,
+        or under load control with the rotation free all three), to ``tol`` (None: the settings'):
+        ((state, rigid), None, products) where it met the tolerance, else (None, its forces
+        clipped at zero for the constrained CG, the products it took)."""
         pb, settings = self.problem, self.settings
         rigid, w, load = self._imposed(rigid, free, loads)
         edges, holes = self._set_corrections()
@@ -274,12 +287,13 @@ class ConstrainedCGSolver(NormalSolver):
                 _log_step(pb.size, step, residual, changed, size, 0, alpha,
                           ["primal-dual"] + ([restart] if restart else []))
         settled = settle(pb, forces, w, load, settings.tol if tol is None else tol, settings.precision == "mixed",
-                         direction, weights, trace, forces_in_double)
+                         direction, weights, trace, forces_in_double,
+                         loads=loads if free == [0, 1, 2] else None)
         if not settled.converged:
             _log.debug("n %d primal-dual active set gave up after %d passes and %d products; the constrained "
                        "CG goes on from its forces", pb.size, len(settled.history), settled.products)
             return None, settled.forces, settled.products
-        rigid[free] = settled.approach
+        rigid[free] = settled.motion[free]
         state = self._state(settled.forces, settled.gap, settled.products, settled.history[-1], settled.history)
         return (state._replace(outer=len(settled.history)), rigid), None, settled.products
 

@@ -32,10 +32,26 @@ alternated in one process, 1024² 3.0–3.2 s against 3.6–3.8 s and 2048²
 sets, 35 products, against 34 iterations). On the large-grid scene (a set
 of 2–3 % of the grid) a scratch copy took 26 products against 17
 iterations at 1024², and more time. :class:`.ConstrainedCGSolver` takes it
-on the fresh solves (with a free rotation, on its Newton's first
-evaluation) of levels of
-``CGSettings.primal_dual_from`` nodes or more whose start holds at least
-PRIMAL_DUAL_SHARE of the level's nodes in contact.
+on the fresh solves of levels of ``CGSettings.primal_dual_from`` nodes or
+more whose start holds at least PRIMAL_DUAL_SHARE of the level's nodes in
+contact.
+
+With the rotation free (load control, the moments imposed; levels of
+``CGSettings.rotation_from`` nodes or more) the moments are two more
+constraints of each set's solve, and (δz, θx, θy) are their multipliers
+(:class:`_Motion`): the gap on S is H p − w less its least-squares fit by
+C_S r (C's columns 1, −y, −x, Eq. 7), the directions are projected onto
+the forces that keep the loads, and each new set's forces are corrected by
+a rigid field to hold them exactly. The constrained CG finds the rotation
+by a Newton iteration around solves at a fixed rotation instead, because
+the moments as constraints of its every step lost the support at small
+loads, where a few nodes surround the load point; a near-full set
+surrounds it. Near full contact (Δ = 2.5, 1 E*) that halves a free
+rotation's time: 1024² 1.76–2.01 s against the Newton's 3.37–3.90 s
+(three surfaces), 2048² 9.2–9.5 s against 17.6–17.8 s, 4096² 49.8 s
+against 92.7 s, the moments held to round-off. Where it gives up, the
+Newton goes on from its forces; its first evaluation, at a fixed rotation,
+may take these steps again (``primal_dual_from``).
 
 Without a globalisation the iteration may cycle between sets; it then gives
 up (MAX_SETS sets, or MAX_STEPS steps on one set) and returns its forces,
@@ -49,6 +65,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
+from scipy.linalg.blas import dgemv
 
 from ..errors import ConvergenceError
 from ..operators import passes
@@ -70,15 +87,16 @@ PRIMAL_DUAL_SHARE = 0.5
 
 @dataclass
 class Settled:
-    """What :func:`settle` leaves: the forces (this rank's nodes), the deformed gap H p − w − δz of
-    its last exact product where ``converged`` (else None), the approach δz (0 without a load),
-    the products taken (the steps and each pass's exact H p), the residual each pass started from
-    (a new set, a held one gone on with, or a confirmation) and whether the contact conditions
-    hold to the tolerance."""
+    """What :func:`settle` leaves: the forces (this rank's nodes), the deformed gap H p − w − C r of
+    its last exact product where ``converged`` (else None), the rigid motion r = (δz, θx, θy) it
+    found (the components held fixed 0: all without a load, the rotation without ``loads``), the
+    products taken (the steps and each pass's exact H p), the residual each pass started from (a
+    new set, a held one gone on with, or a confirmation) and whether the contact conditions hold
+    to the tolerance."""
 
     forces: np.ndarray
     gap: np.ndarray | None
-    approach: float
+    motion: np.ndarray
     products: int
     history: list[float]
     converged: bool
@@ -86,7 +104,8 @@ class Settled:
 
 def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, load: float | None, tol: float,
            single: bool, direction: Callable, weights: Callable,
-           trace: Callable | None = None, forces_in_double: bool = True) -> Settled:
+           trace: Callable | None = None, forces_in_double: bool = True,
+           loads: np.ndarray | None = None) -> Settled:
     """The primal–dual active set from ``forces`` (this rank's nodes; changed in place).
 
     ``w``: the imposed interpenetration C r − gap0 with the approach left out under load control,
@@ -97,17 +116,21 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
     weights of a set (both collective, from the constrained CG); ``trace(step, residual, changed,
     size, alpha, restart)``, if given, is told each step. ``forces_in_double`` False: the exact H p
     of the forces in the working precision too (a coarse level of a nested start, whose tolerance
-    is 1000 times a single product's error; as the constrained CG's).
+    is 1000 times a single product's error; as the constrained CG's). ``loads``: with the rotation
+    free, the loads (P, Σ p·(−y), Σ p·(−x)) the forces hold (Cᵀ p, Eq. 7's columns of C; ``load``
+    their first, ``w`` None): the rotation is then found with the approach, on each set, as the
+    constraints' multipliers (:class:`_Motion`), where the constrained CG finds it by a Newton
+    iteration around solves at a fixed rotation.
     """
     pb = problem
     workers = pb.flexibility.workers               # the threads of the passes over the nodes
-    loaded = load is not None
     w_scale = pb.interpenetration_scale(pb.gap0 if w is None else w)
-    if loaded:
-        forces *= pb.load_scale(forces, load)
+    found = _Motion(pb, load, loads, workers)
     contact = forces > 0.0
+    found.on(np.flatnonzero(contact))
+    found.restore(forces)
     products, step, history = 0, 0, []
-    lifted = None                                  # H p − w (δz not subtracted)
+    lifted = None                                  # H p − w (C r not subtracted)
     exact = True                                   # the pass starts from an exact H p
     holding = False                                # the set held: the same directions go on to tol
     confirming = False                             # the exact H p confirms a set solved to tol
@@ -127,14 +150,14 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
         size = int(pb.allsum(nodes.size))          # the set over all ranks (the trace's: every rank reduces)
         outside = ~contact
         g = passes.gather(lifted, nodes, workers)
-        approach = pb.allmean(g) if loaded else 0.0
-        g -= approach
+        motion = found.fit(g)
+        found.remove(g, motion)
         residual = float(pb.allmax(max(passes.largest_magnitude(g),
-                                       approach - lifted[outside].min(initial=approach)))) / w_scale
+                                       found.interpenetration(lifted, outside, motion)))) / w_scale
         history.append(residual)
         if exact and residual <= tol:
-            lifted -= approach
-            return Settled(forces, lifted, approach, products, history, True)
+            lifted -= found.field(motion)
+            return Settled(forces, lifted, motion, products, history, True)
         if confirming:
             # the steps' single-precision products left the set's gap off by more than tol
             single = False
@@ -153,6 +176,7 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
             if steps == MAX_STEPS:
                 return _unsettled(forces, products, history)
             z, gz = direction(g, nodes, edge, single)
+            found.project_direction(z)              # gᵀz stays: g is projected already
             # d = z + β d_last, into z itself by a daxpy (z is this step's own)
             d = z if previous is None else passes.add_scaled(z, gz / previous,
                                                              passes.gather(searching, nodes, workers))
@@ -179,13 +203,12 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
             forces = passes.add_scaled(forces, -alpha, searching)
             lifted = passes.add_scaled(lifted, -alpha, product)
             g = passes.add_scaled(g, -alpha, on_set)
-            if loaded:
-                passes.combine(np.subtract, g, pb.allmean(g), g, workers)
+            found.project(g)
             del d, product, on_set
         # the set moves: tension leaves, interpenetration enters (§3.1)
-        approach = pb.allmean(lifted[nodes]) if loaded else 0.0
+        motion = found.fit(lifted[nodes])
         tension = contact & (forces < 0.0)
-        entering = outside & (lifted < approach)
+        entering = outside & (lifted < found.field(motion))
         changed = int(pb.allsum(np.count_nonzero(tension) + np.count_nonzero(entering)))
         if changed == 0:
             # the set holds: solved to tol, an exact H p confirms it; solved to its target, the
@@ -196,8 +219,8 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
         forces[tension] = 0.0
         contact &= ~tension
         contact |= entering
-        if loaded:
-            forces *= pb.load_scale(forces, load)
+        found.on(np.flatnonzero(contact))
+        found.restore(forces)
         exact, holding, confirming = True, False, False
     return _unsettled(forces, products, history)
 
@@ -206,4 +229,113 @@ def _unsettled(forces: np.ndarray, products: int, history: list[float]) -> Settl
     """What :func:`settle` leaves where it gives up: its forces clipped at zero, in place, for the
     constrained CG to go on from."""
     np.maximum(forces, 0.0, out=forces)
-    return Settled(forces, None, 0.0, products, history, False)
+    return Settled(forces, None, np.zeros(3), products, history, False)
+
+
+class _Motion:
+    """The components of the rigid motion r = (δz, θx, θy) found with the forces on a contact set S
+    (Eq. 7: C r = δz − θx y − θy x), as the multipliers of the loads the forces hold: none under
+    displacement control; the approach δz under load control (Σ p = P), the mean of H p − w over S;
+    with the moments imposed too (``loads``), the least-squares fit of C_S r to H p − w over S,
+    C_S's columns 1, −y and −x at the nodes of S. The gap on S is H p − w less that fit, so it is
+    orthogonal to the columns, and the directions are projected onto the forces that keep the
+    loads (C_Sᵀ d = 0): the projected, preconditioned CG of an equality-constrained quadratic
+    program (the preconditioned gap taken about its mean, as under load control, is the one-column
+    case). Every sum is over all ranks."""
+
+    def __init__(self, problem: NormalProblem, load: float | None, loads: np.ndarray | None, workers: int):
+        self.problem, self.load, self.workers = problem, load, workers
+        self.loads = None if loads is None else np.asarray(loads, dtype=float)
+        if self.loads is not None and (load is None or self.loads[0] != load):
+            raise ValueError("the moments are imposed under load control only, with loads[0] the load")
+        self.nodes = None
+        self.columns = None                        # C_S's columns −y and −x as rows (moments imposed)
+        self.gram = None                           # C_Sᵀ C_S
+
+    def on(self, nodes: np.ndarray) -> None:
+        """The contact set S from now on (this rank's node indices); collective with the moments
+        imposed."""
+        self.nodes = nodes
+        if self.loads is None:
+            return
+        pb = self.problem
+        self.columns = np.empty((2, nodes.size))
+        np.negative(pb.y[nodes], out=self.columns[0])
+        np.negative(pb.x[nodes], out=self.columns[1])
+        sums = self.columns.sum(axis=1)
+        gram = np.empty((3, 3))
+        gram[0] = nodes.size, *sums
+        gram[1:, 0] = sums
+        gram[1:, 1:] = self.columns @ self.columns.T
+        self.gram = pb.allsum(gram)
+
+    def _transposed(self, values: np.ndarray) -> np.ndarray:
+        """C_Sᵀ v over all ranks, for v on the nodes of S (one pass over v for its two moments:
+        BLAS's dgemv)."""
+        return self.problem.allsum(np.concatenate(([values.sum()], self.columns @ values)))
+
+    def _on_set(self, motion: np.ndarray) -> np.ndarray:
+        """C_S r on the nodes of S."""
+        values = self.columns.T @ motion[1:]
+        values += motion[0]
+        return values
+
+    def fit(self, values: np.ndarray) -> np.ndarray:
+        """r fitted to ``values`` on the nodes of S (H p − w there): (δz, θx, θy), 0 where not found."""
+        if self.load is None:
+            return np.zeros(3)
+        if self.loads is None:
+            return np.array([self.problem.allmean(values), 0.0, 0.0])
+        return np.linalg.solve(self.gram, self._transposed(values))
+
+    def remove(self, values: np.ndarray, motion: np.ndarray) -> None:
+        """values −= C_S r on the nodes of S, in place."""
+        if self.loads is None:
+            values -= motion[0]
+        else:
+            # v ← v − [−y −x] (θx, θy) in place (BLAS's dgemv, which takes no empty v), then less δz
+            if values.size:
+                moved = dgemv(-1.0, self.columns.T, motion[1:], beta=1.0, y=values, overwrite_y=True)
+                if moved is not values:            # a strided or non-float64 v is copied by BLAS
+                    values[...] = moved
+            passes.combine(np.subtract, values, motion[0], values, self.workers)
+
+    def project(self, values: np.ndarray) -> None:
+        """values less their fit (values on the nodes of S, in place): the gap kept orthogonal to
+        the columns along the steps."""
+        if self.load is None:
+            return
+        if self.loads is None:
+            passes.combine(np.subtract, values, self.problem.allmean(values), values, self.workers)
+        else:
+            self.remove(values, self.fit(values))
+
+    def project_direction(self, values: np.ndarray) -> None:
+        """A preconditioned gap (already taken about its mean under load control) projected onto
+        the forces that keep the moments too (in place)."""
+        if self.loads is not None:
+            self.remove(values, self.fit(values))
+
+    def field(self, motion: np.ndarray):
+        """C r on this rank's nodes (a scalar where only δz is found)."""
+        if self.loads is None:
+            return motion[0]
+        return self.problem.interpenetration(motion) + self.problem.gap0
+
+    def interpenetration(self, lifted: np.ndarray, outside: np.ndarray, motion: np.ndarray) -> float:
+        """The deepest interpenetration off S, max(C r − (H p − w)) there (0 for none): this rank's."""
+        if self.loads is None:
+            return motion[0] - lifted[outside].min(initial=motion[0])
+        return float(np.max(self.field(motion)[outside] - lifted[outside], initial=0.0))
+
+    def restore(self, forces: np.ndarray) -> None:
+        """The forces rescaled to the load P (Polonsky & Keer), then, with the moments imposed,
+        corrected on S by C_S a so that C_Sᵀ p holds the loads exactly (in place)."""
+        if self.load is None:
+            return
+        forces *= self.problem.load_scale(forces, self.load)
+        if self.loads is not None:
+            held = forces[self.nodes]
+            correction = np.linalg.solve(self.gram, self.loads - self._transposed(held))
+            held += self._on_set(correction)
+            forces[self.nodes] = held

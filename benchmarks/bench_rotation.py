@@ -3,9 +3,9 @@
 
 A study's default load control finds the rotation from zero moments (Eqs. 7-8): an inexact
 Newton on (θx, θy) whose every evaluation is a load-controlled CG solve at a fixed rotation
-(roughcontact/normal/rigid_motion.py), or, near full contact on levels of 256² nodes or more, the
-primal–dual steps with the moments as constraints of each set's solve
-(roughcontact/normal/primal_dual.py). Three parts, one rank, the CG on the FFT operator:
+(roughcontact/normal/rigid_motion.py), or, on levels of 256² nodes or more
+(``CGSettings.rotation_from``), the primal–dual steps with the moments as constraints of each set's
+solve (roughcontact/normal/primal_dual.py). Three parts, one rank, the CG on the FFT operator:
 
 - **scenes**: the large-grid scene (0.01 E*) and near full contact (Δ = 2.5, 1 E*) of
   benchmarks.bench_products, solved with the rotation free and fixed: fine and coarse
@@ -14,7 +14,8 @@ primal–dual steps with the moments as constraints of each set's solve
   moments left over P × extent, the rotation, seconds (median of ``--repeats``);
 - **sweeps**: an ensemble's task (:func:`benchmarks.common.ensemble_task`: 12 warm-started
   loads on a midpoint surface), rotation free, for each seed: linear iterations summed over the
-  loads (fine, coarse and Hessians'), Newton evaluations, the largest moments left, seconds;
+  loads (fine, coarse and Hessians'), outer iterations (Newton evaluations or primal–dual passes),
+  the largest moments left, seconds;
 - **noise**: a state solved with the rotation free; then the rotation fixed there and the state
   solved to tol t = 1e-12 … 1e-7: the change of its moments from t = 1e-12, over t × P × extent.
   The largest of these ratios sets the floor of the inner tolerance of the Newton's last states
@@ -73,17 +74,17 @@ def sweeps(levels_list, seeds, comm, rows) -> None:
         for seed in seeds:
             topo, rock, loads = ensemble_task(levels, seed)
             problem = NormalProblem(topo, rock, comm, operator="fft")
-            iterations = evaluations = 0
+            iterations = outer = 0
             worst = 0.0
             t0 = time.perf_counter()
             with make_solver(problem, "cg") as solver:
                 for load in loads:
                     result = solver.solve_load(load, gather=False)
                     iterations += result.linear_iterations + result.coarse_iterations
-                    evaluations += result.outer_iterations
+                    outer += result.outer_iterations
                     worst = max(worst, moments_left(result, problem))
             row = {"part": "sweeps", "n": topo.shape[0], "seed": seed, "loads": len(loads),
-                   "linear_iterations": iterations, "newton_evaluations": evaluations, "moments_left": worst,
+                   "linear_iterations": iterations, "outer_iterations": outer, "moments_left": worst,
                    "seconds": time.perf_counter() - t0}
             problem.destroy()
             rows.append(row)

@@ -77,17 +77,19 @@ def test_displacement_control_settles_to_the_active_sets_state(comm, rotation):
     problem.destroy()
 
 
-@pytest.mark.parametrize("moments", [(0.0, 0.0), (0.02, -0.01)])
-def test_a_free_rotation_is_found_with_the_forces(comm, caplog, moments):
-    """Load control with the rotation free (zero moments, and the load point moved 0.01 and 0.02
-    off the centroid): the primal–dual steps find (δz, θx, θy) with the forces, the moments two
+@pytest.mark.parametrize("load, moments", [(NEAR_FULL, (0.0, 0.0)), (NEAR_FULL, (0.02, -0.01)),
+                                           (0.01, (2e-4, -1e-4))])
+def test_a_free_rotation_is_found_with_the_forces(comm, caplog, load, moments):
+    """Load control with the rotation free, from a coarse level's start (zero moments, and the
+    load point moved 0.01 and 0.02 off the centroid; near full contact and at 0.01 E*, a few per
+    cent of the nodes): the primal–dual steps find (δz, θx, θy) with the forces, the moments two
     more constraints of each set's projected CG, and no Newton evaluation follows (every fine
     step is a primal–dual one). The state is the active set's, whose damped Newton on (δz, θx,
     θy) is another code, and so is the rotation, to 1e-6 as in test_normal_cg.py. The loads hold
     to round-off, Σ p = P and the moments to 1e-12 of P times the extent: the projection keeps
     C_Sᵀ p at the loads along every step (the sums of 25 600 forces round at about 1e-14)."""
     problem = near_full_problem(comm)
-    control = lambda s: s.solve_load(NEAR_FULL, moments=moments)    # noqa: E731
+    control = lambda s: s.solve_load(load, moments=moments)    # noqa: E731
     reference = solve(problem, "ksp", control)
     with caplog.at_level(logging.DEBUG, logger="roughcontact.normal.constrained_cg"):
         result = solve(problem, "cg", control, settings=SETTLING)
@@ -96,9 +98,9 @@ def test_a_free_rotation_is_found_with_the_forces(comm, caplog, moments):
     assert result.outer_iterations > 1
     assert_same_state(reference, result)
     np.testing.assert_allclose(result.rotation, reference.rotation, rtol=1e-6)
-    assert result.load == pytest.approx(NEAR_FULL, rel=1e-12)
-    np.testing.assert_allclose(result.moments, moments, rtol=0, atol=1e-12 * NEAR_FULL * problem.extent)
-    assert_contact_conditions(problem, result, NEAR_FULL)
+    assert result.load == pytest.approx(load, rel=1e-12)
+    np.testing.assert_allclose(result.moments, moments, rtol=0, atol=1e-12 * load * problem.extent)
+    assert_contact_conditions(problem, result, load)
     problem.destroy()
 
 
@@ -153,6 +155,21 @@ def test_the_rigid_motions_fit_on_a_set(comm):
     forces[nodes] = rng.random(nodes.size)
     motion.restore(forces)
     np.testing.assert_allclose(transposed(forces[nodes]), loads, rtol=0, atol=1e-12)
+    problem.destroy()
+
+
+def test_a_set_on_one_line_cannot_hold_the_moments(comm):
+    """_Motion.on: a set whose nodes lie on one grid row (C_S's columns 1 and −x dependent), a
+    single node, and no node: False (the steps give up for the Newton on θ); a set on two rows:
+    True."""
+    problem = near_full_problem(comm, 32)
+    motion = primal_dual._Motion(problem, 1.0, np.array([1.0, 0.0, 0.0]), problem.flexibility.workers)
+    rows = problem.nodes[:, 0]                    # grid row index of each of this rank's nodes
+    first = int(problem.allmax(-rows.min(initial=10**9))) * -1
+    assert not motion.on(np.flatnonzero(rows == first))
+    assert not motion.on(np.flatnonzero(rows == first)[:1])
+    assert not motion.on(np.zeros(0, dtype=np.intp))
+    assert motion.on(np.flatnonzero((rows == first) | (rows == first + 1)))
     problem.destroy()
 
 
@@ -223,6 +240,27 @@ def test_a_warm_start_takes_the_constrained_cg(comm):
         warm = solver.solve_load(NEAR_FULL, rotation=(0.0, 0.0))
     assert fresh.outer_iterations > 1 and warm.outer_iterations == 1
     assert_same_state(fresh, warm)
+    problem.destroy()
+
+
+def test_a_warm_start_with_the_rotation_free_finds_it_with_the_forces(comm, caplog):
+    """A second load on the same solver, the rotation free, starts from the first load's state
+    (not fresh): the primal–dual steps still find the rotation with the forces (every fine step
+    is one of theirs), and the state, rotation and moments are the active set's at that load, as
+    from a fresh start (tolerances as in test_a_free_rotation_is_found_with_the_forces)."""
+    problem = near_full_problem(comm)
+    moments = (0.015, -0.008)
+    reference = solve(problem, "ksp", lambda s: s.solve_load(0.8 * NEAR_FULL, moments=moments))
+    with make_solver(problem, "cg", settings=SETTLING) as solver:
+        solver.solve_load(NEAR_FULL, moments=moments)
+        with caplog.at_level(logging.DEBUG, logger="roughcontact.normal.constrained_cg"):
+            warm = solver.solve_load(0.8 * NEAR_FULL, moments=moments)
+    steps = fine_steps(caplog, problem.size)
+    assert steps and all("primal-dual" in step["restart"] for step in steps)
+    assert warm.coarse_iterations == 0                       # no coarse level: a warm start
+    assert_same_state(reference, warm)
+    np.testing.assert_allclose(warm.rotation, reference.rotation, rtol=1e-6)
+    np.testing.assert_allclose(warm.moments, moments, rtol=0, atol=1e-12 * NEAR_FULL * problem.extent)
     problem.destroy()
 
 

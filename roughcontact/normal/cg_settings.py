@@ -231,23 +231,28 @@ class CGSettings:
         active set").
     rotation_from
         Under load control with the rotation free, levels of at least this
-        many nodes whose fresh start holds at least PRIMAL_DUAL_SHARE of their
-        nodes in contact find (δz, θx, θy) with the forces: the primal–dual
-        steps with the moments as two more constraints of each set's solve
-        (:mod:`.primal_dual`), instead of the Newton on θ around solves at a
-        fixed rotation (:mod:`.rigid_motion`: three or more evaluations and
-        two Hessians). Where those steps give up, the Newton goes on from
-        their forces. None: never. Near full contact (Δ = 2.5, 1 E*), one
-        rank, fine + coarse iterations and seconds against the Newton's
-        (alternated processes): 1024², seeds 1–3, 29 + 21, 26 + 18 and
+        many nodes find (δz, θx, θy) with the forces, from any start (a
+        coarse grid's, the punches' or a neighbour's) and at any share in
+        contact: the primal–dual steps with the moments as two more
+        constraints of each set's solve (:mod:`.primal_dual`), instead of
+        the Newton on θ around solves at a fixed rotation
+        (:mod:`.rigid_motion`: two or more evaluations and Hessians). Where
+        those steps give up (a set that cannot hold the moments, or that
+        cycles), the Newton goes on from their forces. None: never. One
+        rank, alternated processes against the Newton: the large-grid
+        scene (2 % in contact) 0.57 / 0.55 / 0.52 of the time at 1024² /
+        2048² / 4096² (4096²: 23.7 s against 45.6 s); an ensemble task's
+        12-load sweeps 0.42–0.51 at 257² and 513²; near full contact (Δ =
+        2.5, 1 E*) fine + coarse iterations and seconds:
+        1024², seeds 1–3, 29 + 21, 26 + 18 and
         26 + 21 against 58 + 44, 57 + 42 and 55 + 43, medians 1.76–2.01 s
         against 3.37–3.90 s; 2048² 32 + 22 against 65 + 52, 9.2 / 9.5 s
         against 17.6 / 17.8 s; 4096² 39 + 22 against 78 + 56, 49.8 s against
-        92.7 s. From 256² rather than 512²: 0.47–0.54 of the time at 256²
-        (three surfaces) and 0.52–0.61 on a map of four Δ at 0.3 and 1 E*
-        where the steps were taken, 0.85–0.86 at 512² and 0.94–0.95 at
-        1024² (docs/solver-cost.md, "A free rotation found with the forces
-        near full contact").
+        92.7 s. On 256² and 512² maps of three Δ at 1e-4 to 1e-2 E* (0.03–2 %
+        in contact) 0.76–1.03 and 0.64–0.87. Below 256² the Newton stays:
+        there lie the few-node contacts it was built for, although the
+        ensemble task's sweeps at 33²–129² took 0.56–0.70 of its time
+        (docs/solver-cost.md, "A free rotation found with the forces").
     """
 
     tol: float = 1e-8

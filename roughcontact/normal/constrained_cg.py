@@ -51,10 +51,11 @@ Load control with free rotation (imposed moments) is a Newton iteration on
 (θx, θy) around this solve (:mod:`.rigid_motion`, whose Hessian needs two
 Krylov solves on the contact set at a constant load): imposing the moments
 as two more linear constraints inside the CG loses the support at small
-loads, where a handful of nodes must surround the load point. Near full
-contact (``CGSettings.rotation_from``) the set surrounds it, and the
-primal–dual steps find the rotation with the forces, the moments two more
-constraints of each set's solve (:mod:`.primal_dual`).
+loads, where a handful of nodes must surround the load point. On levels of
+``CGSettings.rotation_from`` nodes or more the primal–dual steps find the
+rotation with the forces instead, the moments two more constraints of each
+held set's solve (:mod:`.primal_dual`), and the Newton runs only where
+they give up.
 
 It stops when the residual of the contact conditions,
 max(|g| on S, max(−g) off S) / (scale of w), is at most ``tol`` (the same
@@ -197,9 +198,13 @@ class ConstrainedCGSolver(NormalSolver):
         if len(free) <= 1:
             return self._settled(rigid, free, loads, forces, forces_in_double=not self.coarse, owned=True)
         unsettled = 0                                  # the products of primal-dual steps that gave up
-        if free == [0, 1, 2] and self._near_full(forces, self.settings.rotation_from):
-            # near full contact the primal–dual steps find the rotation with the forces, the moments
-            # two more constraints of each set's solve: no Newton iteration around the solves
+        start = self.settings.rotation_from
+        if free == [0, 1, 2] and start is not None and self.problem.size >= start:
+            # the primal–dual steps find the rotation with the forces, the moments two more
+            # constraints of each set's solve: no Newton iteration around the solves. From any
+            # start and any share in contact: they replace the Newton's two or more evaluations
+            # and Hessians, which pays down to a few dozen nodes in contact and on warm starts
+            # (docs/solver-cost.md)
             settled = self._primal_dual(rigid, free, loads, forces, forces_in_double=not self.coarse)
             if settled[0] is not None:
                 return settled[0]
@@ -243,7 +248,7 @@ class ConstrainedCGSolver(NormalSolver):
         precision too where ``forces_in_double`` is False); the CG then goes on only where that
         gave up, and the products of both count."""
         settled = None
-        if self._near_full(forces, self.settings.primal_dual_from):
+        if self._near_full(forces):
             if not owned:
                 forces = forces.copy()
             settled = self._primal_dual(rigid, free, loads, forces, tol, forces_in_double)
@@ -256,11 +261,11 @@ class ConstrainedCGSolver(NormalSolver):
             state = state._replace(linear=state.linear + settled[2])
         return state, rigid
 
-    def _near_full(self, forces: np.ndarray, start: int | None) -> bool:
-        """Whether this solve takes the primal–dual steps first from the levels of ``start`` nodes
-        (``CGSettings.primal_dual_from`` or ``rotation_from``; None: never): a fresh start on a
-        level of that many nodes or more with at least PRIMAL_DUAL_SHARE of them in contact (the
-        same answer on every rank)."""
+    def _near_full(self, forces: np.ndarray) -> bool:
+        """Whether this solve settles its set by the primal–dual active set first
+        (``CGSettings.primal_dual_from``): a fresh start on a level of that many nodes or more
+        with at least PRIMAL_DUAL_SHARE of them in contact (the same answer on every rank)."""
+        start = self.settings.primal_dual_from
         pb = self.problem
         return (start is not None and self._fresh and pb.size >= start
                 and float(pb.allsum(np.count_nonzero(forces > 0.0))) >= PRIMAL_DUAL_SHARE * pb.size)

@@ -37,21 +37,24 @@ more whose start holds at least PRIMAL_DUAL_SHARE of the level's nodes in
 contact.
 
 With the rotation free (load control, the moments imposed; levels of
-``CGSettings.rotation_from`` nodes or more) the moments are two more
-constraints of each set's solve, and (δz, θx, θy) are their multipliers
-(:class:`_Motion`): the gap on S is H p − w less its least-squares fit by
-C_S r (C's columns 1, −y, −x, Eq. 7), the directions are projected onto
-the forces that keep the loads, and each new set's forces are corrected by
-a rigid field to hold them exactly. The constrained CG finds the rotation
-by a Newton iteration around solves at a fixed rotation instead, because
-the moments as constraints of its every step lost the support at small
-loads, where a few nodes surround the load point; a near-full set
-surrounds it. Near full contact (Δ = 2.5, 1 E*) that halves a free
-rotation's time: 1024² 1.76–2.01 s against the Newton's 3.37–3.90 s
-(three surfaces), 2048² 9.2–9.5 s against 17.6–17.8 s, 4096² 49.8 s
-against 92.7 s, the moments held to round-off. Where it gives up, the
-Newton goes on from its forces; its first evaluation, at a fixed rotation,
-may take these steps again (``primal_dual_from``).
+``CGSettings.rotation_from`` nodes or more, from any start and at any share
+in contact) the moments are two more constraints of each set's solve, and
+(δz, θx, θy) are their multipliers (:class:`_Motion`): the gap on S is
+H p − w less its least-squares fit by C_S r (C's columns 1, −y, −x, Eq. 7),
+the directions are projected onto the forces that keep the loads, and each
+new set's forces are corrected by a rigid field to hold them exactly. The
+constrained CG finds the rotation by a Newton iteration around solves at a
+fixed rotation instead, because the moments as constraints of its every
+step lost the support at small loads, where a few nodes surround the load
+point. Here a held set that cannot carry them is either seen at once (its
+nodes on one line: GRAM_CONDITION) or moves on, tension leaving, and the
+steps give up where the sets cycle. That halves a free
+rotation's time: the large-grid scene at 4096² 23.7 s against the Newton's
+45.6 s, near full contact 49.8 s against 92.7 s, an ensemble task's
+12-load sweep at 513² 6.4–6.5 s against 12.6–13.4 s, the moments held to
+round-off. Where the steps give up, the Newton goes on from their forces;
+its first evaluation, at a fixed rotation, may take them again
+(``primal_dual_from``).
 
 Without a globalisation the iteration may cycle between sets; it then gives
 up (MAX_SETS sets, or MAX_STEPS steps on one set) and returns its forces,
@@ -83,6 +86,9 @@ MAX_SETS = 40
 MAX_STEPS = 200
 #: the share of a level's nodes in contact from which its start counts as near full contact
 PRIMAL_DUAL_SHARE = 0.5
+#: the largest condition of a set's C_Sᵀ C_S (C's columns 1, −y, −x) from which it holds imposed
+#: moments: above it the set lies on a line, or nearly, and the steps give up for the Newton on θ
+GRAM_CONDITION = 1e10
 
 
 @dataclass
@@ -127,7 +133,8 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
     w_scale = pb.interpenetration_scale(pb.gap0 if w is None else w)
     found = _Motion(pb, load, loads, workers)
     contact = forces > 0.0
-    found.on(np.flatnonzero(contact))
+    if not found.on(np.flatnonzero(contact)):
+        return _unsettled(forces, 0, [])
     found.restore(forces)
     products, step, history = 0, 0, []
     lifted = None                                  # H p − w (C r not subtracted)
@@ -219,7 +226,8 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
         forces[tension] = 0.0
         contact &= ~tension
         contact |= entering
-        found.on(np.flatnonzero(contact))
+        if not found.on(np.flatnonzero(contact)):
+            return _unsettled(forces, products, history)
         found.restore(forces)
         exact, holding, confirming = True, False, False
     return _unsettled(forces, products, history)
@@ -250,14 +258,15 @@ class _Motion:
             raise ValueError("the moments are imposed under load control only, with loads[0] the load")
         self.nodes = None
         self.columns = None                        # C_S's columns −y and −x as rows (moments imposed)
-        self.gram = None                           # C_Sᵀ C_S
+        self.gram = self.scale = None              # C_Sᵀ C_S scaled to a unit diagonal, the scaling
 
-    def on(self, nodes: np.ndarray) -> None:
+    def on(self, nodes: np.ndarray) -> bool:
         """The contact set S from now on (this rank's node indices); collective with the moments
-        imposed."""
+        imposed. False where S cannot hold the moments: its nodes on one line or nearly (C_Sᵀ C_S's
+        condition above GRAM_CONDITION), where a few nodes do not surround the load point."""
         self.nodes = nodes
         if self.loads is None:
-            return
+            return True
         pb = self.problem
         self.columns = np.empty((2, nodes.size))
         np.negative(pb.y[nodes], out=self.columns[0])
@@ -267,7 +276,17 @@ class _Motion:
         gram[0] = nodes.size, *sums
         gram[1:, 0] = sums
         gram[1:, 1:] = self.columns @ self.columns.T
-        self.gram = pb.allsum(gram)
+        gram = pb.allsum(gram)
+        if not np.all(np.diag(gram) > 0.0):           # no node, or all on the centroid's row or column
+            return False
+        # scaled to a unit diagonal: the coordinates' unit (m) must not count as conditioning
+        self.scale = 1.0 / np.sqrt(np.diag(gram))
+        self.gram = gram * np.outer(self.scale, self.scale)
+        return bool(np.linalg.cond(self.gram) <= GRAM_CONDITION)
+
+    def _solved(self, right: np.ndarray) -> np.ndarray:
+        """(C_Sᵀ C_S)⁻¹ b, by the scaled Gram matrix."""
+        return self.scale * np.linalg.solve(self.gram, self.scale * right)
 
     def _transposed(self, values: np.ndarray) -> np.ndarray:
         """C_Sᵀ v over all ranks, for v on the nodes of S (one pass over v for its two moments:
@@ -286,7 +305,7 @@ class _Motion:
             return np.zeros(3)
         if self.loads is None:
             return np.array([self.problem.allmean(values), 0.0, 0.0])
-        return np.linalg.solve(self.gram, self._transposed(values))
+        return self._solved(self._transposed(values))
 
     def remove(self, values: np.ndarray, motion: np.ndarray) -> None:
         """values −= C_S r on the nodes of S, in place."""
@@ -336,6 +355,6 @@ class _Motion:
         forces *= self.problem.load_scale(forces, self.load)
         if self.loads is not None:
             held = forces[self.nodes]
-            correction = np.linalg.solve(self.gram, self.loads - self._transposed(held))
+            correction = self._solved(self.loads - self._transposed(held))
             held += self._on_set(correction)
             forces[self.nodes] = held

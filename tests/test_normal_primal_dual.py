@@ -21,7 +21,8 @@ from roughcontact.normal import CGSettings, NormalProblem, make_solver, primal_d
 #: level below) holds 92 % (the punches' start on a grid without a coarse level holds far fewer:
 #: 28 % of rough(64, 5)'s nodes at E*, whose solution closes 90 %)
 NEAR_FULL = 1.0
-SETTLING = CGSettings(primal_dual_from=1, rotation_from=1)    # every level near full contact takes it
+#: every level near full contact settles its set first, and every level finds a free rotation with the forces
+SETTLING = CGSettings(primal_dual_from=1, rotation_from=1)
 WITHOUT = CGSettings(primal_dual_from=None, rotation_from=None)
 
 
@@ -105,32 +106,70 @@ def test_a_free_rotation_is_found_with_the_forces(comm, caplog, load, moments):
 
 
 def test_a_free_rotation_that_does_not_settle_goes_on_by_the_newton(comm, monkeypatch, caplog):
-    """The primal–dual steps given up after one pass (MAX_SETS = 1) with the rotation free: the
-    Newton on θ goes on from their forces (the trace: primal–dual steps, then the CG's evaluations)
-    and reaches the active set's state, its moments within the Newton's load_tol of P times the
-    extent, the products of the steps given up counted with the rest."""
+    """The rotation's primal–dual steps given up after one pass (MAX_SETS = 1), the fixed-rotation
+    ones off (primal_dual_from=None, so that every marked step is theirs): the Newton on θ goes on
+    from their forces (the trace: their steps, then the CG's), and reaches the active set's state,
+    its moments within the Newton's load_tol of P times the extent. The fine level's count is the
+    given-up steps' products plus the Newton's, each read where it is made."""
+    from roughcontact.normal import constrained_cg
+
     problem = near_full_problem(comm)
-    control = lambda s: s.solve_load(NEAR_FULL, moments=(0.02, -0.01))    # noqa: E731
+    moments = (0.02, -0.01)
+    control = lambda s: s.solve_load(NEAR_FULL, moments=moments)    # noqa: E731
     reference = solve(problem, "ksp", control)
     monkeypatch.setattr(primal_dual, "MAX_SETS", 1)
+    counted = {"settled": []}
+    newton, settle = constrained_cg.newton_on_motion, constrained_cg.settle
+
+    def spying_newton(*args, **kwargs):
+        state, rigid = newton(*args, **kwargs)
+        counted["newton"] = state.linear                  # the last call is the fine level's
+        return state, rigid
+
+    def spying_settle(*args, **kwargs):
+        settled = settle(*args, **kwargs)
+        counted["settled"].append((kwargs.get("loads") is not None, settled.converged, settled.products))
+        return settled
+
+    monkeypatch.setattr(constrained_cg, "newton_on_motion", spying_newton)
+    monkeypatch.setattr(constrained_cg, "settle", spying_settle)
     with caplog.at_level(logging.DEBUG, logger="roughcontact.normal.constrained_cg"):
-        handed = solve(problem, "cg", control, settings=SETTLING)
+        handed = solve(problem, "cg", control, settings=CGSettings(primal_dual_from=None, rotation_from=1))
     marked = ["primal-dual" in step["restart"] for step in fine_steps(caplog, problem.size)]
     assert marked[0] and not marked[-1]
-    # the first evaluation at a fixed θ takes the primal-dual steps too (and gives up again)
-    given_up = sum(marked)
-    assert handed.linear_iterations > given_up
+    assert marked == sorted(marked, reverse=True)        # the Newton's CG steps only after theirs
+    rotation, converged, products = counted["settled"][-1]
+    assert rotation and not converged and products > 0
+    assert handed.linear_iterations == products + counted["newton"]
     assert_same_state(reference, handed)
     np.testing.assert_allclose(handed.rotation, reference.rotation, rtol=1e-6)
     bound = CGSettings().load_tol * NEAR_FULL * problem.extent
-    np.testing.assert_allclose(handed.moments, (0.02, -0.01), rtol=0, atol=bound)
+    np.testing.assert_allclose(handed.moments, moments, rtol=0, atol=bound)
+    problem.destroy()
+
+
+def test_a_set_that_cannot_hold_the_moments_is_left_to_the_newton(comm, monkeypatch, caplog):
+    """Every set taken as one that cannot hold the moments (GRAM_CONDITION = 0, as for nodes on
+    one line): the rotation's steps give up before their first step, and the solve is the
+    Newton's, with no primal–dual step on the fine level and the active set's state."""
+    problem = near_full_problem(comm)
+    control = lambda s: s.solve_load(NEAR_FULL, moments=(0.02, -0.01))    # noqa: E731
+    reference = solve(problem, "ksp", control)
+    monkeypatch.setattr(primal_dual, "GRAM_CONDITION", 0.0)
+    with caplog.at_level(logging.DEBUG, logger="roughcontact.normal.constrained_cg"):
+        left = solve(problem, "cg", control, settings=CGSettings(primal_dual_from=None, rotation_from=1))
+    steps = fine_steps(caplog, problem.size)
+    assert steps and not any("primal-dual" in step["restart"] for step in steps)
+    assert_same_state(reference, left)
+    np.testing.assert_allclose(left.rotation, reference.rotation, rtol=1e-6)
     problem.destroy()
 
 
 def test_the_rigid_motions_fit_on_a_set(comm):
     """primal_dual._Motion with the moments imposed, on half the nodes of a grid (none of the last
     rank's on two ranks), against closed forms: the fit of a rigid field C_S r is r; a projected
-    vector has C_Sᵀ v = 0; restored forces hold the loads (Σ p, Σ p·(−y), Σ p·(−x)). To 1e-12
+    vector has C_Sᵀ v = 0; corrected forces hold the loads (Σ p, Σ p·(−y), Σ p·(−x)); one negative
+    force on one rank fails the signs on every rank. To 1e-12
     (of the terms' count for C_Sᵀ v): sums of up to 3 200 terms of size 1 round at about 1e-14,
     and the 3 × 3 Gram matrix's condition (about 30 here) multiplies that."""
     problem = near_full_problem(comm, 80)
@@ -153,8 +192,15 @@ def test_the_rigid_motions_fit_on_a_set(comm):
     np.testing.assert_allclose(transposed(v), 0.0, atol=1e-12 * float(problem.allsum(nodes.size)))
     forces = np.zeros(problem.local_size)
     forces[nodes] = rng.random(nodes.size)
-    motion.restore(forces)
+    motion.rescale(forces)
+    motion.correct(forces)
     np.testing.assert_allclose(transposed(forces[nodes]), loads, rtol=0, atol=1e-12)
+    # a state is returned only with no negative force on S, the same answer on every rank
+    forces[nodes] = np.abs(forces[nodes])
+    assert motion.signs_hold(forces)
+    if comm.Get_rank() == 0:
+        forces[nodes[0]] = -1e-15
+    assert not motion.signs_hold(forces)
     problem.destroy()
 
 

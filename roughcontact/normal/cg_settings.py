@@ -25,7 +25,7 @@ PRECISIONS = ("mixed", "double")
 #: the levels (nodes) from which a fresh start near full contact settles its set by the primal–dual
 #: active set (``CGSettings.primal_dual_from``)
 PRIMAL_DUAL_FROM = 512 * 512
-#: the levels (nodes) from which a fresh start near full contact finds a free rotation with the forces
+#: the levels (nodes) from which a free rotation is found with the forces (any start, any share in contact)
 #: by the primal–dual steps (``CGSettings.rotation_from``)
 ROTATION_FROM = 256 * 256
 
@@ -296,8 +296,7 @@ class CGSettings:
         _check_optional_count("primal_dual_from", self.primal_dual_from, 1, "never",
                               "the nodes from which a level near full contact takes it")
         _check_optional_count("rotation_from", self.rotation_from, 1, "never",
-                              "the nodes from which a level near full contact finds a free rotation "
-                              "with the forces")
+                              "the nodes from which a level finds a free rotation with the forces")
 
 
 def _check_optional_count(name: str, value, minimum: int, none: str, meaning: str) -> None:

@@ -280,8 +280,11 @@ class ConstrainedCGSolver(NormalSolver):
         rigid, w, load = self._imposed(rigid, free, loads)
         edges, holes = self._set_corrections()
 
+        moments = free == [0, 1, 2]                    # the rotation found with the forces
+
         def direction(g, nodes, edge, single):
-            return self._direction(g, nodes, single, edge, load is not None, holes)
+            # with the moments the steps project the whole rigid fit out, the mean with it
+            return self._direction(g, nodes, single, edge, load is not None and not moments, holes)
 
         def weights(nodes, members, single):
             return self._edge_weights(edges, nodes, members, single, self._corrected, holes)
@@ -293,10 +296,11 @@ class ConstrainedCGSolver(NormalSolver):
                           ["primal-dual"] + ([restart] if restart else []))
         settled = settle(pb, forces, w, load, settings.tol if tol is None else tol, settings.precision == "mixed",
                          direction, weights, trace, forces_in_double,
-                         loads=loads if free == [0, 1, 2] else None)
+                         loads=loads if moments else None, start_only=self.coarse)
         if not settled.converged:
-            _log.debug("n %d primal-dual active set gave up after %d passes and %d products; the constrained "
-                       "CG goes on from its forces", pb.size, len(settled.history), settled.products)
+            _log.debug("n %d primal-dual active set gave up after %d passes and %d products; the %s goes on "
+                       "from its forces", pb.size, len(settled.history), settled.products,
+                       "Newton on the rotation" if moments else "constrained CG")
             return None, settled.forces, settled.products
         rigid[free] = settled.motion[free]
         state = self._state(settled.forces, settled.gap, settled.products, settled.history[-1], settled.history)

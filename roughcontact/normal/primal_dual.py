@@ -1,4 +1,4 @@
-"""Near full contact: the contact set settled by a primal–dual active set (§3.1, Eqs. 7–11).
+"""Primal–dual active set: near-full contact sets, free rotations with the forces (§3.1, Eqs. 7–11).
 
 The bound-constrained CG (:mod:`.constrained_cg`) moves the contact set at
 every step, and each move spoils the conjugacy of its directions. Near full
@@ -58,7 +58,8 @@ its first evaluation, at a fixed rotation, may take them again
 
 Without a globalisation the iteration may cycle between sets; it then gives
 up (MAX_SETS sets, or MAX_STEPS steps on one set) and returns its forces,
-clipped at zero, for the constrained CG to finish from. A loss of positive
+clipped at zero, for the constrained CG to finish from (with the rotation
+free, the Newton on θ of :mod:`.rigid_motion`). A loss of positive
 curvature raises :class:`~roughcontact.errors.ConvergenceError`, as in the
 constrained CG.
 """
@@ -111,7 +112,7 @@ class Settled:
 def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, load: float | None, tol: float,
            single: bool, direction: Callable, weights: Callable,
            trace: Callable | None = None, forces_in_double: bool = True,
-           loads: np.ndarray | None = None) -> Settled:
+           loads: np.ndarray | None = None, start_only: bool = False) -> Settled:
     """The primal–dual active set from ``forces`` (this rank's nodes; changed in place).
 
     ``w``: the imposed interpenetration C r − gap0 with the approach left out under load control,
@@ -126,16 +127,23 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
     free, the loads (P, Σ p·(−y), Σ p·(−x)) the forces hold (Cᵀ p, Eq. 7's columns of C; ``load``
     their first, ``w`` None): the rotation is then found with the approach, on each set, as the
     constraints' multipliers (:class:`_Motion`), where the constrained CG finds it by a Newton
-    iteration around solves at a fixed rotation.
+    iteration around solves at a fixed rotation. Each set's forces are then corrected to hold the
+    moments, which may turn a few small ones at its edge negative: a state is returned only once
+    none is, unless ``start_only`` (a coarse level of a nested start, whose state only starts the
+    next level: there they are clipped to zero, and the extra sets they would take cost more than
+    they give, 22 against 44 coarse iterations near full contact at 2048²).
     """
     pb = problem
+    if loads is not None and w is not None:
+        raise ValueError("with the rotation free every component of the rigid motion is found: w must be None")
     workers = pb.flexibility.workers               # the threads of the passes over the nodes
     w_scale = pb.interpenetration_scale(pb.gap0 if w is None else w)
     found = _Motion(pb, load, loads, workers)
+    found.rescale(forces)
     contact = forces > 0.0
     if not found.on(np.flatnonzero(contact)):
         return _unsettled(forces, 0, [])
-    found.restore(forces)
+    found.correct(forces)
     products, step, history = 0, 0, []
     lifted = None                                  # H p − w (C r not subtracted)
     exact = True                                   # the pass starts from an exact H p
@@ -153,7 +161,7 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
             else:
                 lifted -= w
             products += 1
-        nodes = np.flatnonzero(contact)
+        nodes = found.nodes                        # the set's nodes: flatnonzero(contact)
         size = int(pb.allsum(nodes.size))          # the set over all ranks (the trace's: every rank reduces)
         outside = ~contact
         g = passes.gather(lifted, nodes, workers)
@@ -162,8 +170,10 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
         residual = float(pb.allmax(max(passes.largest_magnitude(g),
                                        found.interpenetration(lifted, outside, motion)))) / w_scale
         history.append(residual)
-        if exact and residual <= tol:
+        if exact and residual <= tol and (start_only or found.signs_hold(forces)):
             lifted -= found.field(motion)
+            if start_only:
+                np.maximum(forces, 0.0, out=forces)    # a start: no force below zero
             return Settled(forces, lifted, motion, products, history, True)
         if confirming:
             # the steps' single-precision products left the set's gap off by more than tol
@@ -226,16 +236,17 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
         forces[tension] = 0.0
         contact &= ~tension
         contact |= entering
+        found.rescale(forces)
         if not found.on(np.flatnonzero(contact)):
             return _unsettled(forces, products, history)
-        found.restore(forces)
+        found.correct(forces)
         exact, holding, confirming = True, False, False
     return _unsettled(forces, products, history)
 
 
 def _unsettled(forces: np.ndarray, products: int, history: list[float]) -> Settled:
     """What :func:`settle` leaves where it gives up: its forces clipped at zero, in place, for the
-    constrained CG to go on from."""
+    constrained CG to go on from (with the rotation free, the Newton on θ)."""
     np.maximum(forces, 0.0, out=forces)
     return Settled(forces, None, np.zeros(3), products, history, False)
 
@@ -268,9 +279,9 @@ class _Motion:
         if self.loads is None:
             return True
         pb = self.problem
-        self.columns = np.empty((2, nodes.size))
-        np.negative(pb.y[nodes], out=self.columns[0])
-        np.negative(pb.x[nodes], out=self.columns[1])
+        # −y and −x of the set's nodes as two rows, from the rows' and columns' coordinates (no
+        # array of every node's)
+        self.columns = np.ascontiguousarray(pb.columns_at(nodes)[:, 1:].T)
         sums = self.columns.sum(axis=1)
         gram = np.empty((3, 3))
         gram[0] = nodes.size, *sums
@@ -339,22 +350,35 @@ class _Motion:
         """C r on this rank's nodes (a scalar where only δz is found)."""
         if self.loads is None:
             return motion[0]
-        return self.problem.interpenetration(motion) + self.problem.gap0
+        return self.problem.rigid_displacement(motion)
 
     def interpenetration(self, lifted: np.ndarray, outside: np.ndarray, motion: np.ndarray) -> float:
         """The deepest interpenetration off S, max(C r − (H p − w)) there (0 for none): this rank's."""
         if self.loads is None:
             return motion[0] - lifted[outside].min(initial=motion[0])
-        return float(np.max(self.field(motion)[outside] - lifted[outside], initial=0.0))
+        depth = self.field(motion)
+        depth -= lifted
+        return float(np.max(depth, where=outside, initial=0.0))
 
-    def restore(self, forces: np.ndarray) -> None:
-        """The forces rescaled to the load P (Polonsky & Keer), then, with the moments imposed,
-        corrected on S by C_S a so that C_Sᵀ p holds the loads exactly (in place)."""
-        if self.load is None:
-            return
-        forces *= self.problem.load_scale(forces, self.load)
+    def rescale(self, forces: np.ndarray) -> None:
+        """The forces rescaled to the load P (Polonsky & Keer), in place; collective."""
+        if self.load is not None:
+            forces *= self.problem.load_scale(forces, self.load)
+
+    def correct(self, forces: np.ndarray) -> None:
+        """With the moments imposed, the forces (rescaled to P) corrected on S by C_S a so that
+        C_Sᵀ p holds the loads exactly, in place (small forces at the set's edge may turn
+        negative: the next move takes them out); collective."""
         if self.loads is not None:
             held = forces[self.nodes]
             correction = self._solved(self.loads - self._transposed(held))
             held += self._on_set(correction)
             forces[self.nodes] = held
+
+    def signs_hold(self, forces: np.ndarray) -> bool:
+        """Whether no force on S is negative, the same answer on every rank; with the rotation
+        held, True without a look (the set's forces are then never negative at an exact pass: a
+        move takes tension out and only rescales)."""
+        if self.loads is None:
+            return True
+        return not self.problem.allsum(np.count_nonzero(forces[self.nodes] < 0.0))

@@ -182,9 +182,16 @@ class NormalProblem(Collective):
         approach, theta_x, theta_y = np.asarray(rigid, dtype=float)
         if theta_x == 0.0 and theta_y == 0.0:
             return approach - self.gap0
+        displaced = self.rigid_displacement(rigid)
+        displaced -= self.gap0
+        return displaced
+
+    def rigid_displacement(self, rigid: np.ndarray) -> np.ndarray:
+        """C r = δz − θx y − θy x on the local nodes (Eq. 7), a new array."""
+        approach, theta_x, theta_y = np.asarray(rigid, dtype=float)
         # the same operations per node as on the nodes' coordinates, on the rows' and columns'
         tilted = (approach - theta_x * self._y_columns)[None, :] - theta_y * self._x_rows[:, None]
-        return self.flexibility.layout.from_slab(tilted) - self.gap0
+        return self.flexibility.layout.from_slab(tilted)
 
     def allsum(self, local) -> np.ndarray:
         """Sum over ranks of a local partial sum (same bits on every rank)."""

@@ -23,7 +23,10 @@ state only as far as the step from it needs); Φ is then the inner problem's
 value at the state's forces, off by second-order terms only, and a state that
 meets the load tolerance is confirmed on one resolved for it. Updating S and r
 together instead, as one active set, cycles on rough surfaces with free
-rotations.
+rotations. The primal–dual steps of the constrained CG do find r with the
+forces on grids of ``CGSettings.rotation_from`` nodes or more
+(:mod:`.primal_dual`): each set held while the rotation is fitted on it,
+and this Newton taking over where the sets cycle.
 
 Failure is never silent: a line search that finds no decrease, or too many
 Newton steps, raise :class:`~roughcontact.errors.ConvergenceError`.

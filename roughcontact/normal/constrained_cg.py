@@ -239,7 +239,7 @@ class ConstrainedCGSolver(NormalSolver):
         state, rigid = newton_on_motion(self.problem, rigid, free, [1, 2], loads, evaluate, stiffness,
                                         load_tol=self.settings.load_tol, max_newton=self.settings.max_newton,
                                         resolution=resolution, tighten=resolution.tighten)
-        return (state._replace(linear=state.linear + unsettled) if unsettled else state), rigid
+        return state._replace(linear=state.linear + unsettled), rigid
 
     def _settled(self, rigid, free, loads, forces, tol: float | None = None, forces_in_double: bool = True,
                  owned: bool = False):
@@ -275,7 +275,8 @@ class ConstrainedCGSolver(NormalSolver):
         place), the components ``free`` of the rigid motion found with the forces (the approach,
         or under load control with the rotation free all three), to ``tol`` (None: the settings'):
         ((state, rigid), None, products) where it met the tolerance, else (None, its forces
-        clipped at zero for the constrained CG, the products it took)."""
+        clipped at zero for the constrained CG, or with the rotation free the Newton on θ, to go
+        on from, the products it took)."""
         pb, settings = self.problem, self.settings
         rigid, w, load = self._imposed(rigid, free, loads)
         edges, holes = self._set_corrections()

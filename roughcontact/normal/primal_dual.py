@@ -172,7 +172,7 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
         history.append(residual)
         if exact and residual <= tol and (start_only or found.signs_hold(forces)):
             lifted -= found.field(motion)
-            if start_only:
+            if start_only and loads is not None:
                 np.maximum(forces, 0.0, out=forces)    # a start: no force below zero
             return Settled(forces, lifted, motion, products, history, True)
         if confirming:
@@ -341,10 +341,11 @@ class _Motion:
             self.remove(values, self.fit(values))
 
     def project_direction(self, values: np.ndarray) -> None:
-        """A preconditioned gap (already taken about its mean under load control) projected onto
-        the forces that keep the moments too (in place)."""
+        """A preconditioned gap projected onto the forces that keep the moments (in place); with
+        the rotation fixed the direction's mean is taken off where it is made (the constrained
+        CG's ``_direction``)."""
         if self.loads is not None:
-            self.remove(values, self.fit(values))
+            self.project(values)
 
     def field(self, motion: np.ndarray):
         """C r on this rank's nodes (a scalar where only δz is found)."""
@@ -377,7 +378,7 @@ class _Motion:
 
     def signs_hold(self, forces: np.ndarray) -> bool:
         """Whether no force on S is negative, the same answer on every rank; with the rotation
-        held, True without a look (the set's forces are then never negative at an exact pass: a
+        fixed, True without a look (the set's forces are then never negative at an exact pass: a
         move takes tension out and only rescales)."""
         if self.loads is None:
             return True

@@ -360,13 +360,16 @@ def test_near_full_contact_is_solved_or_named(comm):
     problem.destroy()
 
 
-def test_failures_raise_named_errors(comm):
-    """Too few iterations raise CG_MAX_ITERATIONS; a bad setting or a use after destroy is named."""
+@pytest.mark.parametrize("rotation_from", [1, None], ids=["rotation with the forces", "Newton on the rotation"])
+def test_failures_raise_named_errors(comm, rotation_from):
+    """Too few iterations raise CG_MAX_ITERATIONS, the primal–dual steps' products counted as the
+    constrained CG's iterations are; a bad setting or a use after destroy is named."""
     problem = NormalProblem(rough(48), FLAT, comm, operator="fft")
     with pytest.raises(ConvergenceError) as info:
-        solve(problem, "cg", CONTROLS["load, rotation free"], settings=CGSettings(max_iterations=3),
-              nested=False)
+        solve(problem, "cg", CONTROLS["load, rotation free"],
+              settings=CGSettings(max_iterations=3, rotation_from=rotation_from), nested=False)
     assert info.value.reason == "CG_MAX_ITERATIONS"
+    assert ("primal-dual" if rotation_from else "bound-constrained") in str(info.value)
     with pytest.raises(InputError, match="preconditioner"):
         CGSettings(preconditioner="multigrid")
     with pytest.raises(InputError, match="method"):

@@ -297,7 +297,8 @@ class ConstrainedCGSolver(NormalSolver):
                           ["primal-dual"] + ([restart] if restart else []))
         settled = settle(pb, forces, w, load, settings.tol if tol is None else tol, settings.precision == "mixed",
                          direction, weights, trace, forces_in_double,
-                         loads=loads if moments else None, start_only=self.coarse)
+                         loads=loads if moments else None, start_only=self.coarse,
+                         max_products=settings.max_iterations)
         if not settled.converged:
             _log.debug("n %d primal-dual active set gave up after %d passes and %d products; the %s goes on "
                        "from its forces", pb.size, len(settled.history), settled.products,

@@ -112,7 +112,7 @@ class Settled:
 def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, load: float | None, tol: float,
            single: bool, direction: Callable, weights: Callable,
            trace: Callable | None = None, forces_in_double: bool = True,
-           loads: np.ndarray | None = None, start_only: bool = False) -> Settled:
+           loads: np.ndarray | None = None, start_only: bool = False, max_products: int | None = None) -> Settled:
     """The primal–dual active set from ``forces`` (this rank's nodes; changed in place).
 
     ``w``: the imposed interpenetration C r − gap0 with the approach left out under load control,
@@ -131,7 +131,9 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
     moments, which may turn a few small ones at its edge negative: a state is returned only once
     none is, unless ``start_only`` (a coarse level of a nested start, whose state only starts the
     next level: there they are clipped to zero, and the extra sets they would take cost more than
-    they give, 22 against 44 coarse iterations near full contact at 2048²).
+    they give, 22 against 44 coarse iterations near full contact at 2048²). ``max_products``: the
+    products (steps and exact H p) allowed before a ConvergenceError (``CG_MAX_ITERATIONS``, the
+    constrained CG's ``max_iterations``); None: no bound but MAX_SETS and MAX_STEPS.
     """
     pb = problem
     if loads is not None and w is not None:
@@ -155,12 +157,12 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
     for _ in range(MAX_SETS):
         if exact:
             del lifted
+            products = _spent(products, max_products, tol, history[-1] if history else None)
             lifted = pb.displacement(forces, single and not forces_in_double)
             if w is None:
                 lifted += pb.gap0
             else:
                 lifted -= w
-            products += 1
         nodes = found.nodes                        # the set's nodes: flatnonzero(contact)
         size = int(pb.allsum(nodes.size))          # the set over all ranks (the trace's: every rank reduces)
         outside = ~contact
@@ -200,9 +202,9 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
             del z
             previous = gz
             passes.scatter(searching, nodes, d, workers)
+            products = _spent(products, max_products, tol, reached)
             product = pb.displacement(searching, single) if dense(nodes.size, forces.size) \
                 else pb.displacement_at(d, nodes, single)
-            products += 1
             on_set = passes.gather(product, nodes, workers)
             curvature = float(pb.allsum(d @ on_set))
             if not curvature > 0.0:
@@ -242,6 +244,17 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
         found.correct(forces)
         exact, holding, confirming = True, False, False
     return _unsettled(forces, products, history)
+
+
+def _spent(products: int, max_products: int | None, tol: float, last: float | None) -> int:
+    """``products`` + 1, the product about to be taken; ConvergenceError (``CG_MAX_ITERATIONS``,
+    as the constrained CG's) where that would pass ``max_products``."""
+    if max_products is not None and products >= max_products:
+        residual = "none yet" if last is None else format(last, ".3e")
+        raise ConvergenceError(
+            "CG_MAX_ITERATIONS", f"{max_products} primal-dual active-set products without meeting tol={tol:g} "
+                                 f"(last residual {residual}); raise CGSettings.max_iterations or loosen tol")
+    return products + 1
 
 
 def _unsettled(forces: np.ndarray, products: int, history: list[float]) -> Settled:

@@ -248,9 +248,10 @@ def test_balancing_from_is_checked():
 
 
 def test_the_space_is_made_once_per_fresh_solve(comm, caplog):
-    """With the rotation free, the Newton's evaluations share the space of their solve: the fine
-    level makes it once. A warm start (the next load of a sweep, from the last solution) makes
-    none: it has little left to settle."""
+    """With the rotation free and found by the Newton on θ (``rotation_from=None``; the default
+    finds it with the forces, whose steps take no space), the Newton's evaluations share the
+    space of their solve: the fine level makes it once. A warm start (the next load of a sweep,
+    from the last solution) makes none: it has little left to settle."""
     s = 1.0 / 128
     surface = fourier_surface(128, s, hurst=0.8, rms_slope=1.0, rolloff_wavelength=1.0,
                               short_cutoff_wavelength=8 * s, periodic=False, seed=1)
@@ -261,7 +262,7 @@ def test_the_space_is_made_once_per_fresh_solve(comm, caplog):
         return [r.cg_step["nodes"] for r in records if hasattr(r, "cg_step") and "coarse space" in r.cg_step["restart"]]
 
     try:
-        with make_solver(problem, "cg", settings=CGSettings(balancing_from=1)) as solver:
+        with make_solver(problem, "cg", settings=CGSettings(balancing_from=1, rotation_from=None)) as solver:
             with caplog.at_level(logging.DEBUG, logger="roughcontact.normal.constrained_cg"):
                 free = solver.solve_load(load)
                 fresh = made(caplog.records)

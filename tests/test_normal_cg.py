@@ -153,17 +153,19 @@ def test_returning_nodes_of_the_other_colour_are_held_back():
 @pytest.mark.parametrize("control", ["load, rotation fixed", "load, rotation free", "closure"])
 def test_alternate_return_changes_the_path_not_the_state(comm, control, caplog):
     """Near full contact (89 % at 160², one coarse level) nodes that left the set come back on
-    alternate iterations (the trace's ``held``: none at the first step, when none has left yet,
-    some later); the state is the one reached without the rule, to the force tolerance."""
+    alternate iterations of the constrained CG (the trace's ``held``: none at the first step,
+    when none has left yet, some later; with the rotation free the Newton's solves, which
+    ``rotation_from=None`` forces); the state is the one reached without the rule, to the force
+    tolerance."""
     import logging
 
     controls = {"load, rotation fixed": lambda s: s.solve_load(1.0, rotation=(0.0, 0.0)),
                 "load, rotation free": lambda s: s.solve_load(1.0),
                 "closure": lambda s: s.solve_closure(1.06)}
     problem = NormalProblem(rough(160, seed=2), FLAT, comm, operator="fft")
-    without = solve(problem, "cg", controls[control], settings=CGSettings(alternate_return=False))
+    without = solve(problem, "cg", controls[control], settings=CGSettings(alternate_return=False, rotation_from=None))
     with caplog.at_level(logging.DEBUG, logger="roughcontact.normal.constrained_cg"):
-        alternating = solve(problem, "cg", controls[control])
+        alternating = solve(problem, "cg", controls[control], settings=CGSettings(rotation_from=None))
     held = [record.cg_step["held"] for record in caplog.records
             if hasattr(record, "cg_step") and record.cg_step["nodes"] == problem.size]
     problem.destroy()
@@ -393,11 +395,14 @@ def test_unpreconditioned_cg_reaches_the_same_state(comm):
     problem.destroy()
 
 
+@pytest.mark.parametrize("rotation_from", [1, None], ids=["with the forces", "Newton"])
 @pytest.mark.parametrize("levels, dimension, seed", [(4, 2.3, 1), (4, 2.5, 2), (5, 2.1, 3), (5, 2.5, 3)])
-def test_free_rotation_at_a_few_contact_nodes(comm, levels, dimension, seed):
-    """Loads so small that 3–6 nodes must surround the load point, rotations free: the CG's
-    Newton on θ reaches the active set's state (these cases made CG iterations with the
-    moments as linear constraints lose their support)."""
+def test_free_rotation_at_a_few_contact_nodes(comm, levels, dimension, seed, rotation_from):
+    """Loads so small that 3–6 nodes must surround the load point, rotations free: the CG reaches
+    the active set's state, with the rotation found with the forces (the default; where a held
+    set cannot carry the moments the steps give up and the Newton goes on: here on the second
+    surface, the steps holding on the other three) and by the Newton on θ alone (these cases made
+    CG iterations with the moments as linear constraints of every step lose their support)."""
     from roughcontact.surfaces import midpoint_surface
 
     rock = Interface(Material(20e9, 0.2), Material(20e9, 0.2))
@@ -405,28 +410,30 @@ def test_free_rotation_at_a_few_contact_nodes(comm, levels, dimension, seed):
     problem = NormalProblem(topo, rock, comm, operator="fft")
     load = 5e-5 * rock.contact_modulus * topo.nominal_area
     reference = solve(problem, "ksp", lambda s: s.solve_load(load))
-    result = solve(problem, "cg", lambda s: s.solve_load(load))
+    result = solve(problem, "cg", lambda s: s.solve_load(load), settings=CGSettings(rotation_from=rotation_from))
     assert 3 <= reference.contact.sum() <= 12
     assert_same_state(reference, result)
     np.testing.assert_allclose(result.rotation, reference.rotation, rtol=1e-6)
     problem.destroy()
 
 
+@pytest.mark.parametrize("rotation_from", [1, None], ids=["with the forces", "Newton"])
 @pytest.mark.parametrize("levels, factor, load", [(8, 4, 30.0), (9, 8, 60.0), (11, 32, 100.0)])
-def test_free_rotation_does_not_cycle_on_decimated_fractal_surfaces(comm, levels, factor, load):
+def test_free_rotation_does_not_cycle_on_decimated_fractal_surfaces(comm, levels, factor, load, rotation_from):
     """65² grids decimated from finer midpoint surfaces (what the coarsest level of a nested start
     solves), 7–13 nodes in contact, rotation free. The Newton on θ alternated between a step accepted
     by Armijo on Φ (the load residual rising) and one accepted because the load residual halved (Φ
     rising) for all its 50 steps — relative load residual 0.73 on the third case, the coarsest level
     of a 2049² farm task, whose every finer level then started from independent punches (2 of 150
     such cases failed: 2 dimensions × 15 seeds × 5 loads). Now the state is the equilibrium (Σ p = P
-    and zero moments about the centroid within load_tol) and the active set's."""
+    and zero moments about the centroid within load_tol) and the active set's, with the rotation
+    found with the forces (the default) and by the Newton alone."""
     from roughcontact.surfaces import coarsen, midpoint_surface
 
     rock = Interface(Material(20e9, 0.0), Material(20e9, 0.0))
     topo = coarsen(midpoint_surface(levels, 2.2, spacing=1e-4, rms_height=1e-5, seed=1), factor, "decimate")
     problem = NormalProblem(topo, rock, comm, operator="dense")
-    result = solve(problem, "cg", lambda s: s.solve_load(load))
+    result = solve(problem, "cg", lambda s: s.solve_load(load), settings=CGSettings(rotation_from=rotation_from))
     reference = solve(problem, "ksp", lambda s: s.solve_load(load))
     assert 4 <= result.contact.sum() <= 16
     assert result.load == pytest.approx(load, rel=1e-8)
@@ -437,7 +444,8 @@ def test_free_rotation_does_not_cycle_on_decimated_fractal_surfaces(comm, levels
 
 @pytest.mark.parametrize("control", ["load, rotation free", "load and moments"])
 def test_free_rotation_resolves_loosely_first_and_returns_a_state_resolved_for_load_tol(comm, control):
-    """The inexact Newton on θ: the first evaluation is resolved to FIRST_TOL (1e-5, looser than
+    """The inexact Newton on θ (``rotation_from=None``: by default the rotation is found with the
+    forces): the first evaluation is resolved to FIRST_TOL (1e-5, looser than
     the solver's tol), later ones to 1e-3 of the square of the load residual they step from, and
     the state returned to CONFIRM_SHARE (0.1) of load_tol, the floor no state here needed
     lowered. Its rotation is the active set's to 1e-6 (the bound of the few-node cases above)."""
@@ -446,8 +454,8 @@ def test_free_rotation_resolves_loosely_first_and_returns_a_state_resolved_for_l
 
     problem = NormalProblem(rough(64, seed=6), FLAT, comm, operator="fft")
     reference = solve(problem, "ksp", CONTROLS[control])
-    settings, tolerances = CGSettings(), []
-    with make_solver(problem, "cg") as solver:
+    settings, tolerances = CGSettings(rotation_from=None), []       # the Newton, not the steps
+    with make_solver(problem, "cg", settings=settings) as solver:
         inner = solver._constrained_cg
 
         def recording(rigid, free, loads, forces, tol=None, **options):
@@ -614,11 +622,13 @@ def test_complementary_energy_of_an_inexact_state_is_the_inner_value(comm, tol):
 
 
 @pytest.mark.slow
-def test_free_rotation_converges_on_every_coarse_level_like_surface(comm):
+@pytest.mark.parametrize("rotation_from", [1, None], ids=["with the forces", "Newton"])
+def test_free_rotation_converges_on_every_coarse_level_like_surface(comm, rotation_from):
     """The map behind the previous test: 65² grids decimated by 4 from 257² and by 8 from 513²
-    midpoint surfaces (Δ = 2.2, seeds 1–15), five loads from 30 to 200 N (3 to ~60 nodes), rotation
+    midpoint surfaces (Δ = 2.2, seeds 1–15), five loads from 30 to 200 N (1 to 115 nodes), rotation
     free, each from a cold start: every one converges to zero moments (2 of the 150 cycled before
-    Φ was kept from rising); about 10 s."""
+    Φ was kept from rising), with the rotation found with the forces (9 of the 150 gave up for the
+    Newton) and by the Newton alone; about 10 s each."""
     from roughcontact.surfaces import coarsen, midpoint_surface
 
     rock = Interface(Material(20e9, 0.0), Material(20e9, 0.0))
@@ -628,7 +638,8 @@ def test_free_rotation_converges_on_every_coarse_level_like_surface(comm):
                            "decimate")
             with NormalProblem(topo, rock, comm, operator="dense") as problem:
                 for load in (30.0, 60.0, 100.0, 150.0, 200.0):
-                    result = solve(problem, "cg", lambda s: s.solve_load(load))
+                    result = solve(problem, "cg", lambda s: s.solve_load(load),
+                                   settings=CGSettings(rotation_from=rotation_from))
                     assert np.abs(result.moments).max() <= 1e-8 * load * problem.extent, (levels, seed, load)
 
 
@@ -817,7 +828,8 @@ def test_deferred_far_fields_reach_the_same_state(comm, control, monkeypatch):
     from roughcontact.operators.near_field import PendingFarField
 
     problem = NormalProblem(rough(64, seed=6), FLAT, comm, operator="fft")
-    at_once = solve(problem, "cg", CONTROLS[control], settings=CGSettings(defer=0.0))
+    # the far fields wait in the constrained CG's steps: with the rotation free, the Newton's
+    at_once = solve(problem, "cg", CONTROLS[control], settings=CGSettings(defer=0.0, rotation_from=None))
     deferred = []
     defer = PendingFarField.defer
 
@@ -828,7 +840,7 @@ def test_deferred_far_fields_reach_the_same_state(comm, control, monkeypatch):
     monkeypatch.setattr(PendingFarField, "defer", recorded)
     monkeypatch.setattr(constrained_cg, "DEFER_NODES", 1)
     monkeypatch.setattr(constrained_cg, "DEFER_FROM", 1)
-    waited = solve(problem, "cg", CONTROLS[control])
+    waited = solve(problem, "cg", CONTROLS[control], settings=CGSettings(rotation_from=None))
     assert deferred
     assert_same_state(at_once, waited)
     assert waited.residual <= CGSettings().tol

@@ -26,8 +26,8 @@ PRECISIONS = ("mixed", "double")
 #: active set (``CGSettings.primal_dual_from``)
 PRIMAL_DUAL_FROM = 512 * 512
 #: the levels (nodes) from which a free rotation is found with the forces (any start, any share in contact)
-#: by the primal–dual steps (``CGSettings.rotation_from``)
-ROTATION_FROM = 256 * 256
+#: by the primal–dual steps (``CGSettings.rotation_from``): every level
+ROTATION_FROM = 1
 
 
 @dataclass(frozen=True)
@@ -248,10 +248,16 @@ class CGSettings:
         26 + 21 against 58 + 44, 57 + 42 and 55 + 43, medians 1.76–2.01 s
         against 3.37–3.90 s; 2048² 32 + 22 against 65 + 52, 9.2 / 9.5 s
         against 17.6 / 17.8 s; 4096² 39 + 22 against 78 + 56, 49.8 s against
-        92.7 s. On 256² and 512² maps of three Δ at 1e-4 to 1e-2 E* (0.03–2 %
-        in contact) 0.76–1.03 and 0.64–0.87. Below 256² the Newton stays:
-        there lie the few-node contacts it was built for, although the
-        ensemble task's sweeps at 33²–129² took 0.56–0.70 of its time
+        92.7 s. On 256² and 512² maps of three Δ at 1e-4 to 1e-2 E* (0.03–2
+        % in contact) 0.76–1.03 and 0.64–0.87. On every level (the
+        default, 1), the two alternated in one process: the ensemble task's
+        12-load sweeps (seeds 1–10, medians of 3) 0.55–0.86 / 0.53–0.76 /
+        0.48–0.60 / 0.49–0.55 of the time at 17² / 33² / 65² / 129²; the
+        few-node map (fresh solves at 1e-5 to 2e-4 E*, 17²–129², 3–1430
+        nodes in contact) 0.43–0.72 where the median contact holds 6
+        nodes or more, 0.99–1.05 on contacts of 3–4 nodes, whose sets
+        mostly cannot carry the moments (the steps give up at once for the
+        Newton); the states the active set's to 3.6e-7 of the largest force
         (docs/solver-cost.md, "A free rotation found with the forces").
     """
 

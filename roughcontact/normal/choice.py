@@ -4,26 +4,26 @@ Every operator applies the same Eq. 10 kernel and every method meets the
 same contact conditions to the same tolerance, so the choice is one of cost
 only, and it is recorded with each result (``NormalResult.operator``,
 ``.method`` and ``.choice``). Measured on one rank (benchmarks/bench_crossover.py,
-benchmarks/bench_normal_large.py; see docs/solvers.md):
+benchmarks/bench_normal_large.py; see docs/solvers.md, last measured with
+the free rotation found with the forces on every level):
 
 - **operator**: ``"fft-periodic"`` for a surface declared periodic whose
   footprint is the whole grid (one period of a periodic interface); the
   explicit ``"dense"`` matrix up to :data:`DENSE_NODES` footprint nodes
   (33², where the active set is taken and its explicit blocks make it
-  27–29 % faster than on the FFT operator: a 12-load task on 33², 0.061 s
-  against 0.084 s with the rotation free, 0.039 against 0.055 s fixed);
-  ``"fft"`` above: with the CG's mixed-precision products the FFT operator
-  is as fast as the dense one at 33² and faster at 65² (0.424 against
-  0.455 s free, 0.077 against 0.099 s fixed; before them the dense one was
-  20–25 % faster there) and 1.9 to 4.4 times faster at 129², and the dense
-  matrix does not fit in memory beyond ~192².
+  faster than on the FFT operator: a 12-load task on 33², 0.053 s
+  against 0.091 s with the rotation free, 0.034 against 0.059 s fixed);
+  ``"fft"`` above: with the CG the FFT operator is faster from 65² (0.143
+  against 0.171 s free, 0.104 against 0.123 s fixed) and twice as fast at
+  129² (0.400 against 0.809 s free), and the dense matrix does not fit in
+  memory beyond ~192².
 - **method**: the active set (``"ksp"``) up to :data:`ACTIVE_SET_NODES`
   footprint nodes (33²), where with the rotation free, as an ensemble's
-  tasks are, it was 2.7 times as fast as the CG (0.061 s against 0.164 s
+  tasks are, it is 1.7 times as fast as the CG (0.053 s against 0.092 s
   per 12-load task at 33² on the dense matrix); the bound-constrained
-  ``"cg"`` above (faster than the active set from 65²: 0.445 against
-  0.51 s free, 0.081 against 0.34 s fixed), and always on
-  ``"fft-periodic"``. ``"gauss-seidel"`` (the
+  ``"cg"`` above (faster than the active set from 65²: 0.143 against
+  0.527 s free, 0.104 against 0.333 s fixed on the FFT operator), and
+  always on ``"fft-periodic"``. ``"gauss-seidel"`` (the
   paper's) is a reference only. The stability map
   (benchmarks/bench_stability.py) found no case, 64² to 1024², where the CG
   or the active set fails.

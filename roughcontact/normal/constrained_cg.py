@@ -51,11 +51,12 @@ Load control with free rotation (imposed moments) is a Newton iteration on
 (θx, θy) around this solve (:mod:`.rigid_motion`, whose Hessian needs two
 Krylov solves on the contact set at a constant load): imposing the moments
 as two more linear constraints inside the CG loses the support at small
-loads, where a handful of nodes must surround the load point. On levels of
-``CGSettings.rotation_from`` nodes or more the primal–dual steps find the
+loads, where a handful of nodes must surround the load point. By default
+(``CGSettings.rotation_from``: every level) the primal–dual steps find the
 rotation with the forces instead, the moments two more constraints of each
 held set's solve (:mod:`.primal_dual`), and the Newton runs only where
-they give up.
+they give up (a set that cannot carry the moments: most contacts of 3–4
+nodes about the load point).
 
 It stops when the residual of the contact conditions,
 max(|g| on S, max(−g) off S) / (scale of w), is at most ``tol`` (the same

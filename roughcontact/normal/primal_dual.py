@@ -37,24 +37,27 @@ more whose start holds at least PRIMAL_DUAL_SHARE of the level's nodes in
 contact.
 
 With the rotation free (load control, the moments imposed; levels of
-``CGSettings.rotation_from`` nodes or more, from any start and at any share
-in contact) the moments are two more constraints of each set's solve, and
-(δz, θx, θy) are their multipliers (:class:`_Motion`): the gap on S is
-H p − w less its least-squares fit by C_S r (C's columns 1, −y, −x, Eq. 7),
-the directions are projected onto the forces that keep the loads, and each
-new set's forces are corrected by a rigid field to hold them exactly. The
-constrained CG finds the rotation by a Newton iteration around solves at a
-fixed rotation instead, because the moments as constraints of its every
-step lost the support at small loads, where a few nodes surround the load
-point. Here a held set that cannot carry them is either seen at once (its
-nodes on one line: GRAM_CONDITION) or moves on, tension leaving, and the
-steps give up where the sets cycle. That halves a free
-rotation's time: the large-grid scene at 4096² 23.7 s against the Newton's
-45.6 s, near full contact 49.8 s against 92.7 s, an ensemble task's
-12-load sweep at 513² 6.4–6.5 s against 12.6–13.4 s, the moments held to
-round-off. Where the steps give up, the Newton goes on from their forces;
-its first evaluation, at a fixed rotation, may take them again
-(``primal_dual_from``).
+``CGSettings.rotation_from`` nodes or more, every level by default, from
+any start and at any share in contact) the moments are two more
+constraints of each set's solve, and (δz, θx, θy) are their multipliers
+(:class:`_Motion`): the gap on S is H p − w less its least-squares fit by
+C_S r (C's columns 1, −y, −x, Eq. 7), the directions are projected onto
+the forces that keep the loads, and each new set's forces are corrected by
+a rigid field to hold them exactly. The constrained CG finds the rotation
+by a Newton iteration around solves at a fixed rotation instead, because
+the moments as constraints of its every step lost the support at small
+loads, where a few nodes surround the load point. Here a held set that
+cannot carry them is either seen at once (its nodes on one line:
+GRAM_CONDITION) or moves on, tension leaving, and the steps give up where
+the sets cycle. That halves a free rotation's time: the large-grid scene
+at 4096² 23.7 s against the Newton's 45.6 s, near full contact 49.8 s
+against 92.7 s, an ensemble task's 12-load sweep at 513² 6.4–6.5 s against
+12.6–13.4 s and at 17²–129² 0.48–0.86 of its time, the moments held to
+round-off. On contacts of 3–4 nodes about the load point most sets cannot
+carry the moments (28–29 of 30 cells at 1e-5 E* on 17² and 33²): the steps
+give up at once, for 0.99–1.05 of the Newton's time. Where the steps give
+up, the Newton goes on from their forces; its first evaluation, at a fixed
+rotation, may take them again (``primal_dual_from``).
 
 Without a globalisation the iteration may cycle between sets; it then gives
 up (MAX_SETS sets, or MAX_STEPS steps on one set) and returns its forces,

@@ -24,9 +24,10 @@ value at the state's forces, off by second-order terms only, and a state that
 meets the load tolerance is confirmed on one resolved for it. Updating S and r
 together instead, as one active set, cycles on rough surfaces with free
 rotations. The primal–dual steps of the constrained CG do find r with the
-forces on grids of ``CGSettings.rotation_from`` nodes or more
-(:mod:`.primal_dual`): each set held while the rotation is fitted on it,
-and this Newton taking over where the sets cycle.
+forces (:mod:`.primal_dual`; by default on every grid,
+``CGSettings.rotation_from``): each set held while the rotation is fitted on
+it, and this Newton taking over where a set cannot carry the moments or the
+sets cycle.
 
 Failure is never silent: a line search that finds no decrease, or too many
 Newton steps, raise :class:`~roughcontact.errors.ConvergenceError`.

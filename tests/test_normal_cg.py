@@ -418,6 +418,38 @@ def test_free_rotation_at_a_few_contact_nodes(comm, levels, dimension, seed, rot
 
 
 @pytest.mark.parametrize("rotation_from", [1, None], ids=["with the forces", "Newton"])
+def test_a_contact_on_a_line_through_the_load_point(comm, rotation_from):
+    """The one failure of the few-node map (benchmarks/bench_rotation.py --parts few, 1 of 270
+    cells): 17², Δ = 2.1, seed 4, 1e-5 E* A0, where the active set's contact is two corner nodes
+    on the grid's diagonal through the centroid, each carrying P/2. Two nodes on a line through
+    the load point hold the moments but not the rotation about that line: the state's forces are
+    unique, its rotation is not (any about the diagonal that brings no third node into contact).
+    The steps refuse the set (its nodes on one line), and the Newton's trust region took a step of
+    its whole radius along the rotation the set does not stiffen, from a load residual that is
+    round-off along it, at every try: the line search failed at 2.05e-8 against load_tol 1e-8 on
+    one rank. Now the forces are the active set's, the moments within load_tol, and the rigid
+    motion the same at the two supports (Eq. 7: δz − θx y − θy x at (x, y) = ±(−8s, 8s), so δz
+    the same and Δθx = Δθy)."""
+    from roughcontact.surfaces import midpoint_surface
+
+    rock = Interface(Material(20e9, 0.2), Material(20e9, 0.2))
+    topo = midpoint_surface(4, 2.1, spacing=1e-4, rms_height=1e-5, seed=4)
+    problem = NormalProblem(topo, rock, comm, operator="fft")
+    load = 1e-5 * rock.contact_modulus * topo.nominal_area
+    reference = solve(problem, "ksp", lambda s: s.solve_load(load))
+    result = solve(problem, "cg", lambda s: s.solve_load(load), settings=CGSettings(rotation_from=rotation_from))
+    carrying = np.flatnonzero(reference.force > FORCE_RTOL * reference.force.max())
+    assert carrying.tolist() == [16, 16 * 17]                     # the corners (0, 16) and (16, 0)
+    np.testing.assert_allclose(reference.force.ravel()[carrying], load / 2, rtol=1e-12)
+    assert_same_state(reference, result)
+    assert np.abs(result.moments).max() <= CGSettings().load_tol * load * problem.extent
+    assert result.closure == pytest.approx(reference.closure, rel=1e-6)
+    change = np.subtract(result.rotation, reference.rotation)
+    assert abs(change[0] - change[1]) <= 1e-6 * np.abs(reference.rotation).max()
+    problem.destroy()
+
+
+@pytest.mark.parametrize("rotation_from", [1, None], ids=["with the forces", "Newton"])
 @pytest.mark.parametrize("levels, factor, load", [(8, 4, 30.0), (9, 8, 60.0), (11, 32, 100.0)])
 def test_free_rotation_does_not_cycle_on_decimated_fractal_surfaces(comm, levels, factor, load, rotation_from):
     """65² grids decimated from finer midpoint surfaces (what the coarsest level of a nested start

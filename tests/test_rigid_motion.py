@@ -16,7 +16,13 @@ import pytest
 
 from roughcontact.errors import ConvergenceError
 from roughcontact.normal.result import ContactState
-from roughcontact.normal.rigid_motion import CONFIRM_SHARE, FINEST_SHARE, InexactResolution, newton_on_motion
+from roughcontact.normal.rigid_motion import (
+    CONFIRM_SHARE,
+    FINEST_SHARE,
+    InexactResolution,
+    _newton_step,
+    newton_on_motion,
+)
 
 K = 2.0            # spring stiffness: H = I / K
 P = 10.0           # imposed load
@@ -223,3 +229,21 @@ def test_without_lowering_the_floor_scattered_states_stop_the_newton():
     with pytest.raises(ConvergenceError, match="without meeting load_tol"):
         newton_on_motion(bed, np.zeros(3), [0, 1, 2], [1, 2], loads, jittered(bed, loads, rule, log),
                          stiffness, load_tol=LOAD_TOL, max_newton=20, resolution=rule)
+
+
+@pytest.mark.parametrize("along", [1e-3, 0.0, 0.75, 1.5, -1.5, 3.0])
+def test_a_direction_the_set_does_not_stiffen_is_followed_only_beyond_negligible(along):
+    """Hessian diag(0, 2) in u = dr / units: the Newton step −g/2 along the second direction;
+    along the first, where Φ is linear, the descent direction at the whole radius only where the
+    residual there, F₁ in the loads' own units, is above ``negligible``: at 1e-3 of it (round-off
+    along a rotation two supports do not fix), zero or 0.75 of it, none; at 1.5 of it, followed.
+    The residual measured in u instead (F₁ × units: 1.5 of it at 0.75) or divided twice (F₁ /
+    units: 0.75 of it at 1.5) decides otherwise, and so does the second load's bound, 1e-4 of
+    the first's, taken for the first's."""
+    units = np.array([2.0, 0.5])
+    negligible = np.array([1e-8, 1e-12])
+    force = np.array([along * negligible[0], 0.3])
+    step = _newton_step(np.diag([0.0, 2.0]) / np.outer(units, units), force, units, 0.5, negligible)
+    assert step[1] / units[1] == pytest.approx(-force[1] * units[1] / 2.0, rel=1e-12)
+    expected = -0.5 * np.sign(along) if abs(along) > 1.0 else 0.0
+    assert step[0] / units[0] == expected

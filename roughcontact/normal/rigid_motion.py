@@ -144,7 +144,9 @@ def newton_on_motion(problem: NormalProblem, rigid: np.ndarray, free: list[int],
                                   residual=max(state.residual, error)), rigid
         hessian, its = stiffness(state.active)
         spent["linear"] += its
-        newton_step = _newton_step(hessian, force, units, radius)
+        # a direction the set does not stiffen is not followed where the residual along it is
+        # within half of load_tol: the stiff steps then meet load_tol, with room for round-off
+        newton_step = _newton_step(hessian, force, units, radius, 0.5 * load_tol * scale)
         step = newton_step * (log_damping(force[0] + target[0], target[0]) if outer[0] == 0 else 1.0)
         slope = float(force @ step)
         alpha = 1.0
@@ -233,14 +235,20 @@ def log_damping(load: float, target: float) -> float:
     return load * np.log(target / load) / (target - load)
 
 
-def _newton_step(hessian: np.ndarray, force: np.ndarray, units: np.ndarray, radius: float) -> np.ndarray:
+def _newton_step(hessian: np.ndarray, force: np.ndarray, units: np.ndarray, radius: float,
+                 negligible: np.ndarray) -> np.ndarray:
     """Newton step on Φ within a trust region, robust to a contact set that cannot fix r yet.
 
     In coordinates u = dr / units the step solves the Newton system on the
     range of the Hessian; along directions the contact set does not stiffen
     yet (no node touches, or too few to fix a rotation), Φ is linear, and the
-    step follows its descent direction. The step is then limited to
-    |u|∞ ≤ radius.
+    step follows its descent direction, unless the loads' residual along them
+    is within ``negligible`` (in F's units, each load's: a share of load_tol
+    times the load's scale): two nodes on a line through the load point carry
+    the moments but not the rotation about that line, along which F is
+    round-off, and a step of the whole radius there moved the set off its
+    solution at every try (the line search then failed at 2.05e-8 against
+    load_tol 1e-8, on one rank). The step is then limited to |u|∞ ≤ radius.
     """
     gradient = force * units
     matrix = hessian * np.outer(units, units)
@@ -251,7 +259,7 @@ def _newton_step(hessian: np.ndarray, force: np.ndarray, units: np.ndarray, radi
     soft = vectors[:, ~stiff]
     if soft.size:
         descent = -(soft @ (soft.T @ gradient))
-        if np.abs(descent).max() > 0.0:
+        if np.any(np.abs(descent / units) > negligible):
             step += radius * descent / np.abs(descent).max()
     longest = np.abs(step).max()
     if longest > radius:

@@ -3,8 +3,9 @@
 
 The large-grid scene (benchmarks.common.scene_surface: Hurst 0.8, unit rms
 slope, mean pressure 0.01 E*, rotation fixed; ``--free-rotation``: found from
-zero moments, as a study's default, whose Newton takes Hessians through
-explicit contact-set blocks where the set is small), or with ``--scenes full`` near
+zero moments, as a study's default, with the forces by the primal–dual steps, or
+where they give up by the Newton, whose Hessians take explicit contact-set blocks
+where the set is small), or with ``--scenes full`` near
 full contact (fractal dimension 2.5 at 1 E*, 86 % of the nodes in contact;
 benchmarks/bench_products.py's two scenes), the FFT operator and the
 constrained CG with its defaults (mixed precision, coarse-to-fine start).

@@ -276,6 +276,30 @@ def test_a_set_that_does_not_settle_is_handed_to_the_constrained_cg(comm, monkey
     problem.destroy()
 
 
+def test_the_steps_take_at_most_max_iterations_products(comm):
+    """One level (no coarse start), the rotation free, settled by the steps alone (with the
+    rotation fixed the punches' start is not near full, and the constrained CG takes it): its
+    fine count is their products (each set's exact H p and each step's). Allowed exactly that
+    many (``max_iterations``), the solve returns the same state; one fewer, it raises
+    CG_MAX_ITERATIONS before the product that would pass the bound, on every rank at once (the
+    count is the same on each)."""
+    from roughcontact.errors import ConvergenceError
+
+    problem = near_full_problem(comm)
+    control = lambda s: s.solve_load(NEAR_FULL)    # noqa: E731
+    free = solve(problem, "cg", control, settings=SETTLING, nested=False)
+    products = free.linear_iterations
+    assert free.outer_iterations > 1 and products > free.outer_iterations   # the steps, on several sets
+    bounded = solve(problem, "cg", control, nested=False,
+                    settings=CGSettings(primal_dual_from=1, rotation_from=1, max_iterations=products))
+    np.testing.assert_array_equal(bounded.force, free.force)
+    with pytest.raises(ConvergenceError) as info:
+        solve(problem, "cg", control, nested=False,
+              settings=CGSettings(primal_dual_from=1, rotation_from=1, max_iterations=products - 1))
+    assert info.value.reason == "CG_MAX_ITERATIONS" and "primal-dual" in str(info.value)
+    problem.destroy()
+
+
 def test_a_warm_start_takes_the_constrained_cg(comm):
     """The same load again on the same solver starts from its last solution (not fresh): the
     constrained CG alone, with the same state."""

@@ -214,9 +214,9 @@ class CGSettings:
         (:mod:`.primal_dual`): each set held while the CG solves on it to a
         share of its residual, then moved at once; where that gives up
         (a set cycling) the constrained CG goes on from its forces. With the
-        rotation free, on levels below ``rotation_from`` (or where the
-        steps that find it gave up), the Newton's first evaluation (the
-        later ones start warm): near full contact at 2048² 39.6 s against
+        rotation free, where the steps that find it gave up (or with
+        ``rotation_from=None``, or on levels below it), the Newton's first
+        evaluation (the later ones start warm): near full contact at 2048² 39.6 s against
         42.7 s, 72 fine iterations against 74 (medians of 2, alternated), at
         1024² 10.9 s against 11.2 s (3). None: never. Near full contact (Δ =
         2.5, 1 E*, seed 1), CG steps / sets (fine iterations, which count
@@ -251,14 +251,17 @@ class CGSettings:
         92.7 s. On 256² and 512² maps of three Δ at 1e-4 to 1e-2 E* (0.03–2
         % in contact) 0.76–1.03 and 0.64–0.87. On every level (the
         default, 1), the two alternated in one process: the ensemble task's
-        12-load sweeps (seeds 1–10, medians of 3) 0.55–0.86 / 0.53–0.76 /
-        0.48–0.60 / 0.49–0.55 of the time at 17² / 33² / 65² / 129²; the
+        12-load sweeps (seeds 1–10, medians of 3) 0.57–0.87 / 0.53–0.76 /
+        0.49–0.60 / 0.50–0.56 of the time at 17² / 33² / 65² / 129²; the
         few-node map (fresh solves at 1e-5 to 2e-4 E*, 17²–129², 3–1430
         nodes in contact) 0.43–0.72 where the median contact holds 6
-        nodes or more, 0.99–1.05 on contacts of 3–4 nodes, whose sets
+        nodes or more, 0.99–1.06 on contacts of 3–4 nodes, whose sets
         mostly cannot carry the moments (the steps give up at once for the
         Newton); the states the active set's to 3.6e-7 of the largest force
         (docs/solver-cost.md, "A free rotation found with the forces").
+        The steps' products count against ``max_iterations``, as the
+        constrained CG's iterations do: each solve's steps, and where they
+        give up each solve of the Newton that goes on, have that bound.
     """
 
     tol: float = 1e-8

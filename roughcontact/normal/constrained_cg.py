@@ -204,8 +204,8 @@ class ConstrainedCGSolver(NormalSolver):
             # the primal–dual steps find the rotation with the forces, the moments two more
             # constraints of each set's solve: no Newton iteration around the solves. From any
             # start and any share in contact: they replace the Newton's two or more evaluations
-            # and Hessians, which pays down to a few dozen nodes in contact and on warm starts
-            # (docs/solver-cost.md)
+            # and Hessians, which pays down to about 6 nodes in contact and on warm starts; on 3-4
+            # they mostly give up at once (docs/solvers.md, "On every grid")
             settled = self._primal_dual(rigid, free, loads, forces, forces_in_double=not self.coarse)
             if settled[0] is not None:
                 return settled[0]

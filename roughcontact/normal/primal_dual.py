@@ -52,10 +52,10 @@ GRAM_CONDITION) or moves on, tension leaving, and the steps give up where
 the sets cycle. That halves a free rotation's time: the large-grid scene
 at 4096² 23.7 s against the Newton's 45.6 s, near full contact 49.8 s
 against 92.7 s, an ensemble task's 12-load sweep at 513² 6.4–6.5 s against
-12.6–13.4 s and at 17²–129² 0.48–0.86 of its time, the moments held to
+12.6–13.4 s and at 17²–129² 0.49–0.87 of its time, the moments held to
 round-off. On contacts of 3–4 nodes about the load point most sets cannot
-carry the moments (28–29 of 30 cells at 1e-5 E* on 17² and 33²): the steps
-give up at once, for 0.99–1.05 of the Newton's time. Where the steps give
+carry the moments (28–30 of 30 cells at 1e-5 E* on 17² and 33²): the steps
+give up at once, for 0.99–1.06 of the Newton's time. Where the steps give
 up, the Newton goes on from their forces; its first evaluation, at a fixed
 rotation, may take them again (``primal_dual_from``).
 

@@ -218,7 +218,7 @@ def main() -> None:
                         default=["scenes", "sweeps", "noise"])
     parser.add_argument("--sizes", type=int, nargs="+", default=[1024], help="the scenes' grids")
     parser.add_argument("--levels", type=int, nargs="+", default=[6, 7, 8],
-                        help="the sweeps' surfaces: 2^levels + 1 nodes a side")
+                        help="the sweeps' and the few-node map's surfaces: 2^levels + 1 nodes a side")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     parser.add_argument("--repeats", type=int, default=1)
     parser.add_argument("--output", default="results/bench_rotation.json")

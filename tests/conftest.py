@@ -30,6 +30,24 @@ def shared_dir(tmp_path, comm):
     return Path(comm.bcast(str(tmp_path), root=0))
 
 
+@pytest.fixture
+def settle_calls(monkeypatch):
+    """Every call of the primal–dual steps a constrained-CG solve makes, in order, as (the moments
+    imposed, what :func:`~roughcontact.normal.primal_dual.settle` returned): which way a solve
+    went, read where the steps return (the calls themselves unchanged)."""
+    import roughcontact.normal.constrained_cg as constrained_cg
+
+    settle, calls = constrained_cg.settle, []
+
+    def recorded(*args, **kwargs):
+        settled = settle(*args, **kwargs)
+        calls.append((kwargs.get("loads") is not None, settled))
+        return settled
+
+    monkeypatch.setattr(constrained_cg, "settle", recorded)
+    return calls
+
+
 @pytest.fixture(autouse=True)
 def _collective_cleanup():
     """Free PETSc objects deterministically and keep ranks in step between tests."""

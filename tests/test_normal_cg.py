@@ -397,30 +397,22 @@ def test_unpreconditioned_cg_reaches_the_same_state(comm):
 
 @pytest.mark.parametrize("rotation_from", [1, None], ids=["with the forces", "Newton"])
 @pytest.mark.parametrize("levels, dimension, seed", [(4, 2.3, 1), (4, 2.5, 2), (5, 2.1, 3), (5, 2.5, 3)])
-def test_free_rotation_at_a_few_contact_nodes(comm, levels, dimension, seed, rotation_from, monkeypatch):
+def test_free_rotation_at_a_few_contact_nodes(comm, levels, dimension, seed, rotation_from, settle_calls):
     """Loads so small that 3–6 nodes must surround the load point, rotations free: the CG reaches
     the active set's state, with the rotation found with the forces (the default; where a held
     set cannot carry the moments the steps give up and the Newton goes on: here on the second
     surface, the steps holding on the other three: read where the steps return) and by the Newton
     on θ alone (these cases made CG iterations with the moments as linear constraints of every
     step lose their support)."""
-    import roughcontact.normal.constrained_cg as constrained_cg
     from roughcontact.surfaces import midpoint_surface
 
-    settle, settled = constrained_cg.settle, []
-
-    def recorded(*args, **kwargs):
-        out = settle(*args, **kwargs)
-        settled.append(out.converged)
-        return out
-
-    monkeypatch.setattr(constrained_cg, "settle", recorded)
     rock = Interface(Material(20e9, 0.2), Material(20e9, 0.2))
     topo = midpoint_surface(levels, dimension, spacing=1e-4, rms_height=1e-5, seed=seed)
     problem = NormalProblem(topo, rock, comm, operator="fft")
     load = 5e-5 * rock.contact_modulus * topo.nominal_area
     reference = solve(problem, "ksp", lambda s: s.solve_load(load))
     result = solve(problem, "cg", lambda s: s.solve_load(load), settings=CGSettings(rotation_from=rotation_from))
+    settled = [settled.converged for _, settled in settle_calls]
     if rotation_from is None:
         assert settled == []
     else:

@@ -105,7 +105,7 @@ def test_a_free_rotation_is_found_with_the_forces(comm, caplog, load, moments):
     problem.destroy()
 
 
-def test_a_free_rotation_that_does_not_settle_goes_on_by_the_newton(comm, monkeypatch, caplog):
+def test_a_free_rotation_that_does_not_settle_goes_on_by_the_newton(comm, monkeypatch, caplog, settle_calls):
     """The rotation's primal–dual steps given up after one pass (MAX_SETS = 1), the fixed-rotation
     ones off (primal_dual_from=None, so that every marked step is theirs): the Newton on θ goes on
     from their forces (the trace: their steps, then the CG's), and reaches the active set's state,
@@ -118,29 +118,23 @@ def test_a_free_rotation_that_does_not_settle_goes_on_by_the_newton(comm, monkey
     control = lambda s: s.solve_load(NEAR_FULL, moments=moments)    # noqa: E731
     reference = solve(problem, "ksp", control)
     monkeypatch.setattr(primal_dual, "MAX_SETS", 1)
-    counted = {"settled": []}
-    newton, settle = constrained_cg.newton_on_motion, constrained_cg.settle
+    counted = {}
+    newton = constrained_cg.newton_on_motion
 
     def spying_newton(*args, **kwargs):
         state, rigid = newton(*args, **kwargs)
         counted["newton"] = state.linear                  # the last call is the fine level's
         return state, rigid
 
-    def spying_settle(*args, **kwargs):
-        settled = settle(*args, **kwargs)
-        counted["settled"].append((kwargs.get("loads") is not None, settled.converged, settled.products))
-        return settled
-
     monkeypatch.setattr(constrained_cg, "newton_on_motion", spying_newton)
-    monkeypatch.setattr(constrained_cg, "settle", spying_settle)
     with caplog.at_level(logging.DEBUG, logger="roughcontact.normal.constrained_cg"):
         handed = solve(problem, "cg", control, settings=CGSettings(primal_dual_from=None, rotation_from=1))
     marked = ["primal-dual" in step["restart"] for step in fine_steps(caplog, problem.size)]
     assert marked[0] and not marked[-1]
     assert marked == sorted(marked, reverse=True)        # the Newton's CG steps only after theirs
-    rotation, converged, products = counted["settled"][-1]
-    assert rotation and not converged and products > 0
-    assert handed.linear_iterations == products + counted["newton"]
+    rotation, settled = settle_calls[-1]
+    assert rotation and not settled.converged and settled.products > 0
+    assert handed.linear_iterations == settled.products + counted["newton"]
     assert_same_state(reference, handed)
     np.testing.assert_allclose(handed.rotation, reference.rotation, rtol=1e-6)
     bound = CGSettings().load_tol * NEAR_FULL * problem.extent

@@ -43,7 +43,7 @@ import time
 
 import numpy as np
 
-from benchmarks.common import ensemble_task, save_json, scene_problem, scene_topography, solve_scene
+from benchmarks.common import ensemble_problem, ensemble_task, save_json, scene_problem, scene_topography, solve_scene
 
 #: the inner tolerances of the noise part; the first is the reference
 NOISE_TOLERANCES = (1e-12, 1e-11, 1e-10, 1e-9, 1e-8, 1e-7)
@@ -82,14 +82,11 @@ WAYS = {"steps": {"rotation_from": 1}, "newton": {"rotation_from": None}}
 
 
 def sweeps(levels_list, seeds, repeats, comm, rows) -> None:
-    from roughcontact.normal import CGSettings, NormalProblem, make_solver
+    from roughcontact.normal import CGSettings, make_solver
 
     for levels in levels_list:
         for seed in seeds:
-            topo, rock, loads = ensemble_task(levels, seed)
-            problem = NormalProblem(topo, rock, comm, operator="fft")
-            with make_solver(problem, "cg") as solver:     # the problem's one-time set-up, untimed
-                solver.solve_load(loads[0], gather=False)
+            problem, loads = ensemble_problem(levels, seed, comm)
             times, counts = {way: [] for way in WAYS}, {}
             for repeat in range(repeats):
                 for way in sorted(WAYS, reverse=repeat % 2 == 1):   # alternated, first by turns
@@ -106,7 +103,7 @@ def sweeps(levels_list, seeds, repeats, comm, rows) -> None:
                     times[way].append(time.perf_counter() - t0)
                     counts.update({f"{way}_linear_iterations": iterations, f"{way}_outer_iterations": outer,
                                    f"{way}_moments_left": worst})
-            row = {"part": "sweeps", "n": topo.shape[0], "seed": seed, "loads": len(loads), **counts,
+            row = {"part": "sweeps", "n": problem.topography.shape[0], "seed": seed, "loads": len(loads), **counts,
                    **{f"{way}_seconds": float(np.median(times[way])) for way in WAYS},
                    "ratio": float(np.median(times["steps"]) / np.median(times["newton"]))}
             problem.destroy()

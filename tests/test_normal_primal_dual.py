@@ -8,6 +8,7 @@ contact conditions to tol = 1e-8 of the interpenetration's scale, and H's condit
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -232,12 +233,12 @@ def test_the_same_state_on_one_and_all_ranks(comm, control):
 
 
 def test_the_fine_level_settles_to_the_constrained_cgs_state(comm):
-    """From the coarse level's start (the 80² level below is solved by the constrained CG, its
-    punches' start being sparse): the state of the constrained CG alone."""
+    """From the coarse level's start (the 80² level below is solved by the constrained CG, below
+    ``primal_dual_from``): the state of the constrained CG alone."""
     problem = near_full_problem(comm)
     control = lambda s: s.solve_load(NEAR_FULL, rotation=(0.0, 0.0))    # noqa: E731
     alone = solve(problem, "cg", control, settings=WITHOUT)
-    settled = solve(problem, "cg", control, settings=SETTLING)
+    settled = solve(problem, "cg", control, settings=replace(SETTLING, primal_dual_from=problem.size))
     assert alone.outer_iterations == 1 and settled.outer_iterations > 1
     assert settled.coarse_iterations == alone.coarse_iterations > 0
     assert_same_state(alone, settled)
@@ -294,15 +295,42 @@ def test_the_steps_take_at_most_max_iterations_products(comm):
     problem.destroy()
 
 
-def test_a_warm_start_takes_the_constrained_cg(comm):
-    """The same load again on the same solver starts from its last solution (not fresh): the
-    constrained CG alone, with the same state."""
+def test_a_warm_start_settles_its_set_too(comm):
+    """The next load of a sweep, started from the last solution (89 % in contact, above
+    ``primal_dual_share``): the primal–dual steps, more than one set, and the paper's active set's
+    state at that load."""
     problem = near_full_problem(comm)
     with make_solver(problem, "cg", settings=SETTLING) as solver:
-        fresh = solver.solve_load(NEAR_FULL, rotation=(0.0, 0.0))
-        warm = solver.solve_load(NEAR_FULL, rotation=(0.0, 0.0))
-    assert fresh.outer_iterations > 1 and warm.outer_iterations == 1
-    assert_same_state(fresh, warm)
+        solver.solve_load(NEAR_FULL, rotation=(0.0, 0.0))
+        warm = solver.solve_load(0.8 * NEAR_FULL, rotation=(0.0, 0.0))
+    reference = solve(problem, "ksp", lambda s: s.solve_load(0.8 * NEAR_FULL, rotation=(0.0, 0.0)))
+    assert warm.coarse_iterations == 0 and warm.outer_iterations > 1
+    assert_same_state(reference, warm)
+    problem.destroy()
+
+
+def test_the_share_in_contact_is_counted_at_the_start(comm):
+    """``primal_dual_share`` at the boundary: a warm start holding k of the N nodes in contact (the
+    last solution's set) settles its set first where the share is (k − ½) / N, and is left to the
+    constrained CG alone where it is (k + ½) / N (half a node either side: k / N · N need not give
+    k back in floating point); the same state either way. The first load starts from the punches
+    (no coarse level); both solvers' first states hold the k nodes of a first solve by the
+    constrained CG alone (checked): the start of the warm solve."""
+    problem = near_full_problem(comm)
+    first = lambda s: s.solve_load(NEAR_FULL, rotation=(0.0, 0.0))    # noqa: E731
+    closed = int(np.count_nonzero(solve(problem, "cg", first, nested=False,
+                                        settings=replace(SETTLING, primal_dual_share=1.0)).contact))
+    assert 0.85 * problem.size < closed < problem.size
+    states = []
+    for share in ((closed - 0.5) / problem.size, (closed + 0.5) / problem.size):
+        settings = replace(SETTLING, primal_dual_share=share)
+        with make_solver(problem, "cg", nested=False, settings=settings) as solver:
+            start = first(solver)
+            states.append(solver.solve_load(0.8 * NEAR_FULL, rotation=(0.0, 0.0)))
+        assert np.count_nonzero(start.contact) == closed
+    settled, alone = states
+    assert settled.outer_iterations > 1 and alone.outer_iterations == 1
+    assert_same_state(settled, alone)
     problem.destroy()
 
 
@@ -328,7 +356,7 @@ def test_a_warm_start_with_the_rotation_free_finds_it_with_the_forces(comm, capl
 
 
 def test_a_sparse_start_takes_the_constrained_cg(comm):
-    """A start with less than PRIMAL_DUAL_SHARE of the nodes in contact (0.01 E*, a few per cent):
+    """A start with less than ``primal_dual_share`` of the nodes in contact (0.01 E*, a few per cent):
     the constrained CG alone, step for step."""
     problem = near_full_problem(comm)
     control = lambda s: s.solve_load(0.01, rotation=(0.0, 0.0))    # noqa: E731
@@ -364,4 +392,11 @@ def test_the_trace_names_the_primal_dual_steps(comm, caplog):
 def test_bad_primal_dual_levels_are_named(name, value):
     with pytest.raises(InputError, match=name):
         CGSettings(**{name: value})
+
+
+@pytest.mark.parametrize("value", [-0.1, 1.5, float("nan"), True, "half", None])
+def test_a_bad_primal_dual_share_is_named(value):
+    with pytest.raises(InputError, match="primal_dual_share"):
+        CGSettings(primal_dual_share=value)
+    assert CGSettings(primal_dual_share=0).primal_dual_share == 0
 

@@ -5,7 +5,6 @@ large-grid scene and near full contact (docs/solver-cost.md has the runs).
 The solver itself is :class:`~.constrained_cg.ConstrainedCGSolver`. The
 constants named below are its own (SINGLE_FLOOR, DEFER_NODES, DEFER_FROM,
 in :mod:`.constrained_cg`), the nested start's (COARSE_TOL, :mod:`.nested`),
-the primal–dual active set's (PRIMAL_DUAL_SHARE, :mod:`.primal_dual`) and
 the preconditioner's (EDGE_UPDATES, HOLE_BLOCK, HOLE_SPAN, DUST,
 BALANCING_PARTS, BALANCING_SHARE, in :mod:`roughcontact.operators`).
 """
@@ -22,9 +21,16 @@ from ..operators.preconditioner import EDGE_SHARE
 PRECONDITIONERS = ("fourier", "none")
 PRECISIONS = ("mixed", "double")
 
-#: the levels (nodes) from which a fresh start near full contact settles its set by the primal–dual
-#: active set (``CGSettings.primal_dual_from``)
+#: the levels (nodes) from which a start with much of the level in contact settles its set by the
+#: primal–dual active set (``CGSettings.primal_dual_from``)
 PRIMAL_DUAL_FROM = 512 * 512
+#: the share of a level's nodes in contact from which its start (fresh or warm) settles its set by the
+#: primal–dual active set (``CGSettings.primal_dual_share``). Along an ensemble task's load sweeps
+#: with the rotation fixed (warm starts, 513² and 1025²), each load against the constrained CG's
+#: time: from a quarter of the nodes 0.50–0.92 but one load (1.14); below it 0.75–1.14 over two runs,
+#: and fresh starts lost below 2 % (docs/solver-cost.md, "The primal–dual steps from a quarter of the
+#: nodes in contact")
+PRIMAL_DUAL_SHARE = 0.25
 #: the levels (nodes) from which a free rotation is found with the forces (any start, any share in contact)
 #: by the primal–dual steps (``CGSettings.rotation_from``): every level
 ROTATION_FROM = 1
@@ -208,9 +214,9 @@ class CGSettings:
         contact no space is made (docs/solver-cost.md, "A balancing coarse
         space on blocks of the set").
     primal_dual_from
-        Levels of at least this many nodes whose fresh start (a coarse
-        grid's or the punches') holds at least PRIMAL_DUAL_SHARE of their
-        nodes in contact settle the set by the primal–dual active set first
+        Levels of at least this many nodes whose start (a coarse grid's, the
+        punches' or a neighbour's) holds at least ``primal_dual_share`` of
+        their nodes in contact settle the set by the primal–dual active set first
         (:mod:`.primal_dual`): each set held while the CG solves on it to a
         share of its residual, then moved at once; where that gives up
         (a set cycling) the constrained CG goes on from its forces. With the
@@ -229,6 +235,26 @@ class CGSettings:
         158 s; the large-grid scene's sparse starts never take it
         (docs/solver-cost.md, "The contact set settled by a primal–dual
         active set").
+    primal_dual_share
+        The share of a level's nodes in contact at its start, fresh or warm,
+        from which ``primal_dual_from`` settles the set first, 0–1. An
+        ensemble task's 12-load sweep with the rotation fixed, each load
+        started from the last one's solution (``python -m
+        benchmarks.bench_settling``, one rank, alternated with
+        ``primal_dual_from=None``): 0.86 / 0.90 of the constrained CG's time
+        at 513² and 0.85 / 0.87 at 1025² (seeds 1 / 2), the loads started
+        from 29–86 % in contact at 0.50–0.92 of its time but one (1.14, from
+        31 %), those from 68–86 % at about half of it. Their sets settle
+        where the constrained CG's directions keep restarting on a moving
+        set, and the steps take no second product for the forces a cut
+        restores. Fresh starts of the large-grid scene's surface at 0.3 E*
+        (43–45 % in contact): 0.82–0.89 at 512² and 1024²; below a quarter
+        (``primal_dual_share=0``) fresh starts lost at 0.003 and 0.01 E*
+        (1.01–1.28) and were even at 0.03 and 0.1 E* (0.83–1.10), and warm
+        ones along the sweeps took 0.75–0.99 of the time in one run and
+        0.90–1.14 in another: one rule for both starts was kept. Before,
+        0.5 and fresh starts only (docs/solver-cost.md, "The
+        primal–dual steps from a quarter of the nodes in contact").
     rotation_from
         Under load control with the rotation free, levels of at least this
         many nodes find (δz, θx, θy) with the forces, from any start (a
@@ -279,6 +305,7 @@ class CGSettings:
     alternate_return: bool = True
     balancing_from: int | None = BALANCING_FROM
     primal_dual_from: int | None = PRIMAL_DUAL_FROM
+    primal_dual_share: float = PRIMAL_DUAL_SHARE
     rotation_from: int | None = ROTATION_FROM
 
     def __post_init__(self):
@@ -304,6 +331,12 @@ class CGSettings:
                               "the nodes from which a level takes it")
         _check_optional_count("primal_dual_from", self.primal_dual_from, 1, "never",
                               "the nodes from which a level near full contact takes it")
+        share = self.primal_dual_share
+        if isinstance(share, (bool, np.bool_)) or not isinstance(share, (int, float, np.integer, np.floating)) \
+                or not 0.0 <= share <= 1.0:
+            raise InputError("primal_dual_share", f"must be in [0, 1] (the share of a level's nodes in contact "
+                                                  f"from which its start settles the set first), "
+                                                  f"got {self.primal_dual_share!r}")
         _check_optional_count("rotation_from", self.rotation_from, 1, "never",
                               "the nodes from which a level finds a free rotation with the forces")
 

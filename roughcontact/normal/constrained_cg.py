@@ -41,11 +41,12 @@ preconditioner:
    on a step that ends in an exact H p (a refresh);
 4. the load is restored exactly, p ← p · P/Σp.
 
-Near full contact, on levels of ``CGSettings.primal_dual_from`` nodes or more
-whose fresh start holds half their nodes in contact, the set is settled
-first by the primal–dual active set (:mod:`.primal_dual`): held while the CG
-solves on it, then moved at once; this iteration goes on from its forces
-only where that gives up.
+On levels of ``CGSettings.primal_dual_from`` nodes or more whose start (a
+coarse grid's, the punches' or a neighbour's) holds a quarter of their
+nodes in contact or more (``CGSettings.primal_dual_share``), the set is
+settled first by the primal–dual active set (:mod:`.primal_dual`): held
+while the CG solves on it, then moved at once; this iteration goes on from
+its forces only where that gives up.
 
 Load control with free rotation (imposed moments) is a Newton iteration on
 (θx, θy) around this solve (:mod:`.rigid_motion`, whose Hessian needs two
@@ -93,7 +94,7 @@ from ..operators.holes import HoleCharge
 from ..operators.preconditioner import EDGE_UPDATES, EdgeWeights
 from .cg_settings import CGSettings
 from .nested import COARSE_TOL, NestedStart
-from .primal_dual import PRIMAL_DUAL_SHARE, settle
+from .primal_dual import settle
 from .problem import NormalProblem
 from .result import ContactState
 from .rigid_motion import InexactResolution, newton_on_motion
@@ -245,11 +246,11 @@ class ConstrainedCGSolver(NormalSolver):
     def _settled(self, rigid, free, loads, forces, tol: float | None = None, forces_in_double: bool = True,
                  owned: bool = False):
         """:meth:`_constrained_cg` (the same arguments, δz imposed or found from P), after the
-        primal–dual active set where :meth:`_near_full` says (its exact products in the working
+        primal–dual active set where :meth:`_settles_first` says (its exact products in the working
         precision too where ``forces_in_double`` is False); the CG then goes on only where that
         gave up, and the products of both count."""
         settled = None
-        if self._near_full(forces):
+        if self._settles_first(forces):
             if not owned:
                 forces = forces.copy()
             settled = self._primal_dual(rigid, free, loads, forces, tol, forces_in_double)
@@ -262,14 +263,13 @@ class ConstrainedCGSolver(NormalSolver):
             state = state._replace(linear=state.linear + settled[2])
         return state, rigid
 
-    def _near_full(self, forces: np.ndarray) -> bool:
-        """Whether this solve settles its set by the primal–dual active set first
-        (``CGSettings.primal_dual_from``): a fresh start on a level of that many nodes or more
-        with at least PRIMAL_DUAL_SHARE of them in contact (the same answer on every rank)."""
-        start = self.settings.primal_dual_from
-        pb = self.problem
-        return (start is not None and self._fresh and pb.size >= start
-                and float(pb.allsum(np.count_nonzero(forces > 0.0))) >= PRIMAL_DUAL_SHARE * pb.size)
+    def _settles_first(self, forces: np.ndarray) -> bool:
+        """Whether this solve settles its set by the primal–dual active set first: a level of
+        ``CGSettings.primal_dual_from`` nodes or more whose start, fresh or warm, holds at least
+        ``CGSettings.primal_dual_share`` of them in contact (the same answer on every rank)."""
+        settings, pb = self.settings, self.problem
+        return (settings.primal_dual_from is not None and pb.size >= settings.primal_dual_from
+                and float(pb.allsum(np.count_nonzero(forces > 0.0))) >= settings.primal_dual_share * pb.size)
 
     def _primal_dual(self, rigid, free, loads, forces, tol: float | None = None, forces_in_double: bool = True):
         """The primal–dual active set (:mod:`.primal_dual`) from the start ``forces`` (changed in

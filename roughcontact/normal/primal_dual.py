@@ -31,10 +31,12 @@ alternated in one process, 1024² 3.0–3.2 s against 3.6–3.8 s and 2048²
 15.1–16.6 s against 19.9–20.6 s on three surfaces (2048²: 27 steps on 7
 sets, 35 products, against 34 iterations). On the large-grid scene (a set
 of 2–3 % of the grid) a scratch copy took 26 products against 17
-iterations at 1024², and more time. :class:`.ConstrainedCGSolver` takes it
-on the fresh solves of levels of ``CGSettings.primal_dual_from`` nodes or
-more whose start holds at least PRIMAL_DUAL_SHARE of the level's nodes in
-contact.
+iterations at 1024², and more time; from a quarter of the nodes in contact
+it takes less time than the constrained CG, from fresh starts and from a
+neighbour's alike (docs/solver-cost.md, "The primal–dual steps from a
+quarter of the nodes in contact"). :class:`.ConstrainedCGSolver` takes it on
+levels of ``CGSettings.primal_dual_from`` nodes or more whose start holds
+at least ``CGSettings.primal_dual_share`` of the level's nodes in contact.
 
 With the rotation free (load control, the moments imposed; levels of
 ``CGSettings.rotation_from`` nodes or more, every level by default, from
@@ -88,8 +90,6 @@ THETA = 0.03
 MAX_SETS = 40
 #: the conjugate-gradient steps allowed on one set before it gives up
 MAX_STEPS = 200
-#: the share of a level's nodes in contact from which its start counts as near full contact
-PRIMAL_DUAL_SHARE = 0.5
 #: the largest condition of a set's C_Sᵀ C_S (C's columns 1, −y, −x) from which it holds imposed
 #: moments: above it the set lies on a line, or nearly, and the steps give up for the Newton on θ
 GRAM_CONDITION = 1e10

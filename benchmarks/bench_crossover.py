@@ -2,7 +2,7 @@
 """Which operator and method a small task should use: the measured crossover behind ``auto``.
 
 A task of an ensemble: build the problem, then a warm-started sweep of 12
-loads (0.05 % to 5 % of E* A0, the default study's range of contact) on a
+loads (0.005 % to 0.5 % of E* A0, the default study's range of contact) on a
 midpoint-displacement surface (Δ = 2.3), with the rotation free (the
 default of ``solve_load``) and fixed. For each grid (17² to 257²), operator
 (dense, fft) and method (ksp, cg): the wall time of the whole task, median

@@ -9,11 +9,11 @@ defaults otherwise): ``rule`` (the defaults) against ``cg`` (``primal_dual_from=
 ``--steps``, ``steps`` (``primal_dual_share=0``: the steps from any start on those levels).
 
 - **sweeps**: an ensemble's task (:func:`benchmarks.common.ensemble_task`: a midpoint surface,
-  Δ 2.3, 12 loads from 0.05 % to 5 % of E* A0 closing 2–94 % of the nodes), each load started
+  Δ 2.3, 12 loads from 0.005 % to 0.5 % of E* A0 closing 2–95 % of the nodes), each load started
   from the last one's solution (warm), for each seed. Per load: the share in contact at its start
   (the last load's) and at its solution, the fine + coarse iterations and the seconds of each way
-  (median of ``--repeats``), their ratio to ``cg``; per sweep the totals and the largest force
-  difference over the largest force;
+  (median of ``--repeats``), their ratio to ``cg``; per sweep the totals (sums of the loads'
+  medians) and the largest force difference over the largest force;
 - **fresh**: the large-grid scene's surface (Hurst 0.8, and Δ 2.5) at mean pressures of 0.003 to
   0.3 E* (E* = 1, :func:`benchmarks.common.solve_scene`), each solve from the coarse grid's start
   (set-up included, as the large-grid benchmarks time it): the share in contact, the iterations and

@@ -163,7 +163,7 @@ def solve_scene(problem, pressure: float = SCENE_PRESSURE, settings=None, gather
 def ensemble_task(levels: int, seed: int = 1):
     """An ensemble's task, as ``auto``'s crossovers measure it: (topography, interface, loads). A
     midpoint surface of 2^levels + 1 nodes a side (Δ = 2.3, rms height 10 µm, spacing 100 µm)
-    between two rock half-spaces (E = 20 GPa, ν = 0.2), and 12 loads from 0.05 % to 5 % of
+    between two rock half-spaces (E = 20 GPa, ν = 0.2), and 12 loads from 0.005 % to 0.5 % of
     E* A0 (the default study's range of contact), solved one after the other, warm-started."""
     import numpy as np
 
@@ -178,8 +178,9 @@ def ensemble_task(levels: int, seed: int = 1):
 
 def ensemble_problem(levels: int, seed: int, comm):
     """(problem, loads): :func:`ensemble_task`'s surface as an FFT NormalProblem on ``comm``, its
-    one-time set-up (the operator's symbol, the preconditioner, the coarse levels' problems) done
-    by an untimed solve of the first load, so that the ways a benchmark compares start even."""
+    one-time set-up (the operator's symbol and its preconditioner) done by an untimed solve of the
+    first load, so that the ways a benchmark compares start even; each solver still makes its own
+    coarse levels, inside its first load's time."""
     from roughcontact.normal import NormalProblem, make_solver
 
     topo, rock, loads = ensemble_task(levels, seed)

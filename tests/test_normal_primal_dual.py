@@ -20,9 +20,10 @@ from roughcontact.normal import CGSettings, NormalProblem, make_solver, primal_d
 
 #: a mean pressure of E* closes 89 % of rough(160, 2)'s nodes; its coarse level's start (80², one
 #: level below) holds 92 % (the punches' start on a grid without a coarse level holds far fewer:
-#: 28 % of rough(64, 5)'s nodes at E*, whose solution closes 90 %)
+#: 15 % of rough(160, 2)'s nodes at E*, 28 % of rough(64, 5)'s, whose solution closes 90 %)
 NEAR_FULL = 1.0
-#: every level near full contact settles its set first, and every level finds a free rotation with the forces
+#: every level whose start holds a quarter of its nodes in contact settles its set first, and every level
+#: finds a free rotation with the forces
 SETTLING = CGSettings(primal_dual_from=1, rotation_from=1)
 WITHOUT = CGSettings(primal_dual_from=None, rotation_from=None)
 
@@ -273,7 +274,8 @@ def test_a_set_that_does_not_settle_is_handed_to_the_constrained_cg(comm, monkey
 
 def test_the_steps_take_at_most_max_iterations_products(comm):
     """One level (no coarse start), the rotation free, settled by the steps alone (with the
-    rotation fixed the punches' start is not near full, and the constrained CG takes it): its
+    rotation fixed the punches' start, 15 % of the nodes, is below ``primal_dual_share``, and the
+    constrained CG takes it): its
     fine count is their products (each set's exact H p and each step's). Allowed exactly that
     many (``max_iterations``), the solve returns the same state; one fewer, it raises
     CG_MAX_ITERATIONS before the product that would pass the bound, on every rank at once (the
@@ -295,15 +297,22 @@ def test_the_steps_take_at_most_max_iterations_products(comm):
     problem.destroy()
 
 
-def test_a_warm_start_settles_its_set_too(comm):
-    """The next load of a sweep, started from the last solution (89 % in contact, above
-    ``primal_dual_share``): the primal–dual steps, more than one set, and the paper's active set's
-    state at that load."""
+@pytest.mark.parametrize("control", ["load", "closure"])
+def test_a_warm_start_settles_its_set_too(comm, control):
+    """The next load (or closure) of a sweep, started from the last solution (89 % in contact,
+    above ``primal_dual_share``): the primal–dual steps, more than one set, and the paper's active
+    set's state there."""
     problem = near_full_problem(comm)
+    at = lambda load: lambda s: s.solve_load(load, rotation=(0.0, 0.0))    # noqa: E731
+    if control == "closure":
+        closures = [solve(problem, "ksp", at(load)).closure for load in (NEAR_FULL, 0.8 * NEAR_FULL)]
+        first, second = (lambda s, c=c: s.solve_closure(c, rotation=(0.0, 0.0)) for c in closures)
+    else:
+        first, second = at(NEAR_FULL), at(0.8 * NEAR_FULL)
     with make_solver(problem, "cg", settings=SETTLING) as solver:
-        solver.solve_load(NEAR_FULL, rotation=(0.0, 0.0))
-        warm = solver.solve_load(0.8 * NEAR_FULL, rotation=(0.0, 0.0))
-    reference = solve(problem, "ksp", lambda s: s.solve_load(0.8 * NEAR_FULL, rotation=(0.0, 0.0)))
+        first(solver)
+        warm = second(solver)
+    reference = solve(problem, "ksp", second)
     assert warm.coarse_iterations == 0 and warm.outer_iterations > 1
     assert_same_state(reference, warm)
     problem.destroy()
@@ -311,18 +320,26 @@ def test_a_warm_start_settles_its_set_too(comm):
 
 def test_the_share_in_contact_is_counted_at_the_start(comm):
     """``primal_dual_share`` at the boundary: a warm start holding k of the N nodes in contact (the
-    last solution's set) settles its set first where the share is (k − ½) / N, and is left to the
-    constrained CG alone where it is (k + ½) / N (half a node either side: k / N · N need not give
-    k back in floating point); the same state either way. The first load starts from the punches
-    (no coarse level); both solvers' first states hold the k nodes of a first solve by the
-    constrained CG alone (checked): the start of the warm solve."""
+    last solution's set) settles its set first where the share s gives s · N = k exactly (at least
+    the share: ≥, not >), and is left to the constrained CG alone at the first float above s whose s · N passes k; the
+    same state either way. The first load starts from the punches (no coarse level); both solvers'
+    first states hold the k nodes of a first solve by the constrained CG alone (checked): the start
+    of the warm solve."""
     problem = near_full_problem(comm)
+    size = problem.size
     first = lambda s: s.solve_load(NEAR_FULL, rotation=(0.0, 0.0))    # noqa: E731
     closed = int(np.count_nonzero(solve(problem, "cg", first, nested=False,
                                         settings=replace(SETTLING, primal_dual_share=1.0)).contact))
-    assert 0.85 * problem.size < closed < problem.size
+    assert 0.85 * size < closed < size
+    # k / N · N need not give k back in floating point: the float next to k / N that does
+    exact = [s for s in (np.nextafter(closed / size, 0.0), closed / size, np.nextafter(closed / size, 1.0))
+             if float(s) * size == closed]
+    assert exact
+    above = np.nextafter(exact[0], 1.0)
+    while float(above) * size <= closed:                # the first float whose s · N passes k
+        above = np.nextafter(above, 1.0)
     states = []
-    for share in ((closed - 0.5) / problem.size, (closed + 0.5) / problem.size):
+    for share in (float(exact[0]), float(above)):
         settings = replace(SETTLING, primal_dual_share=share)
         with make_solver(problem, "cg", nested=False, settings=settings) as solver:
             start = first(solver)
@@ -394,9 +411,13 @@ def test_bad_primal_dual_levels_are_named(name, value):
         CGSettings(**{name: value})
 
 
-@pytest.mark.parametrize("value", [-0.1, 1.5, float("nan"), True, "half", None])
+@pytest.mark.parametrize("value", [-0.1, 1.5, float("nan"), float("inf"), True, np.bool_(False), "half", None])
 def test_a_bad_primal_dual_share_is_named(value):
     with pytest.raises(InputError, match="primal_dual_share"):
         CGSettings(primal_dual_share=value)
-    assert CGSettings(primal_dual_share=0).primal_dual_share == 0
+
+
+@pytest.mark.parametrize("value", [0, 1, 0.25, np.float64(0.5), np.float32(0.75), np.int64(1)])
+def test_a_primal_dual_share_from_0_to_1_is_taken(value):
+    assert CGSettings(primal_dual_share=value).primal_dual_share == value
 

@@ -4,8 +4,8 @@ Each lever's docstring entry gives what it was measured to do on the
 large-grid scene and near full contact (docs/solver-cost.md has the runs).
 The solver itself is :class:`~.constrained_cg.ConstrainedCGSolver`. The
 constants named below are its own (SINGLE_FLOOR, DEFER_NODES, DEFER_FROM,
-in :mod:`.constrained_cg`), the nested start's (COARSE_TOL, :mod:`.nested`),
-the preconditioner's (EDGE_UPDATES, HOLE_BLOCK, HOLE_SPAN, DUST,
+in :mod:`.constrained_cg`), the nested start's (COARSE_TOL, :mod:`.nested`)
+and the preconditioner's (EDGE_UPDATES, HOLE_BLOCK, HOLE_SPAN, DUST,
 BALANCING_PARTS, BALANCING_SHARE, in :mod:`roughcontact.operators`).
 """
 from __future__ import annotations
@@ -28,8 +28,8 @@ PRIMAL_DUAL_FROM = 512 * 512
 #: primal–dual active set (``CGSettings.primal_dual_share``). Along an ensemble task's load sweeps
 #: with the rotation fixed (warm starts, 513² and 1025²), each load against the constrained CG's
 #: time: from a quarter of the nodes 0.50–0.92 but one load (1.14); below it 0.75–1.14 over two runs,
-#: and fresh starts lost below 2 % (docs/solver-cost.md, "The primal–dual steps from a quarter of the
-#: nodes in contact")
+#: and fresh starts lost at 2 % and below (docs/solver-cost.md, "The primal–dual steps from a quarter
+#: of the nodes in contact")
 PRIMAL_DUAL_SHARE = 0.25
 #: the levels (nodes) from which a free rotation is found with the forces (any start, any share in contact)
 #: by the primal–dual steps (``CGSettings.rotation_from``): every level
@@ -222,7 +222,7 @@ class CGSettings:
         (a set cycling) the constrained CG goes on from its forces. With the
         rotation free, where the steps that find it gave up (or with
         ``rotation_from=None``, or on levels below it), the Newton's first
-        evaluation (the later ones start warm): near full contact at 2048² 39.6 s against
+        evaluation, fresh or warm (the later ones go to the constrained CG): near full contact at 2048² 39.6 s against
         42.7 s, 72 fine iterations against 74 (medians of 2, alternated), at
         1024² 10.9 s against 11.2 s (3). None: never. Near full contact (Δ =
         2.5, 1 E*, seed 1), CG steps / sets (fine iterations, which count
@@ -248,9 +248,10 @@ class CGSettings:
         where the constrained CG's directions keep restarting on a moving
         set, and the steps take no second product for the forces a cut
         restores. Fresh starts of the large-grid scene's surface at 0.3 E*
-        (43–45 % in contact): 0.82–0.89 at 512² and 1024²; below a quarter
+        (43–45 % in contact): 0.82–0.89 at 512² and 1024². Below a quarter
         (``primal_dual_share=0``) fresh starts lost at 0.003 and 0.01 E*
-        (1.01–1.28) and were even at 0.03 and 0.1 E* (0.83–1.10), and warm
+        (1–2 % in contact: 1.01–1.28), were even at 0.03 E* (6 %:
+        0.89–1.10) and a little ahead at 0.1 E* (17–18 %: 0.83–0.99), and warm
         ones along the sweeps took 0.75–0.99 of the time in one run and
         0.90–1.14 in another: one rule for both starts was kept. Before,
         0.5 and fresh starts only (docs/solver-cost.md, "The
@@ -330,7 +331,7 @@ class CGSettings:
         _check_optional_count("balancing_from", self.balancing_from, 1, "no coarse space",
                               "the nodes from which a level takes it")
         _check_optional_count("primal_dual_from", self.primal_dual_from, 1, "never",
-                              "the nodes from which a level near full contact takes it")
+                              "the nodes from which a level takes it")
         share = self.primal_dual_share
         if isinstance(share, (bool, np.bool_)) or not isinstance(share, (int, float, np.integer, np.floating)) \
                 or not 0.0 <= share <= 1.0:

@@ -32,9 +32,9 @@ alternated in one process, 1024² 3.0–3.2 s against 3.6–3.8 s and 2048²
 sets, 35 products, against 34 iterations). On the large-grid scene (a set
 of 2–3 % of the grid) a scratch copy took 26 products against 17
 iterations at 1024², and more time; from a quarter of the nodes in contact
-it takes less time than the constrained CG, from fresh starts and from a
-neighbour's alike (docs/solver-cost.md, "The primal–dual steps from a
-quarter of the nodes in contact"). :class:`.ConstrainedCGSolver` takes it on
+it took less time than the constrained CG from fresh starts and, but for
+one load, from a neighbour's along load sweeps (docs/solver-cost.md, "The
+primal–dual steps from a quarter of the nodes in contact"). :class:`.ConstrainedCGSolver` takes it on
 levels of ``CGSettings.primal_dual_from`` nodes or more whose start holds
 at least ``CGSettings.primal_dual_share`` of the level's nodes in contact.
 
@@ -59,7 +59,8 @@ round-off. On contacts of 3–4 nodes about the load point most sets cannot
 carry the moments (28–30 of 30 cells at 1e-5 E* on 17² and 33²): the steps
 give up at once, for 0.99–1.06 of the Newton's time. Where the steps give
 up, the Newton goes on from their forces; its first evaluation, at a fixed
-rotation, may take them again (``primal_dual_from``).
+rotation, may take them again (``primal_dual_from`` and
+``primal_dual_share``).
 
 Without a globalisation the iteration may cycle between sets; it then gives
 up (MAX_SETS sets, or MAX_STEPS steps on one set) and returns its forces,

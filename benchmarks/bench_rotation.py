@@ -43,7 +43,15 @@ import time
 
 import numpy as np
 
-from benchmarks.common import ensemble_problem, ensemble_task, save_json, scene_problem, scene_topography, solve_scene
+from benchmarks.common import (
+    alternated,
+    ensemble_problem,
+    ensemble_task,
+    save_json,
+    scene_problem,
+    scene_topography,
+    solve_scene,
+)
 
 #: the inner tolerances of the noise part; the first is the reference
 NOISE_TOLERANCES = (1e-12, 1e-11, 1e-10, 1e-9, 1e-8, 1e-7)
@@ -89,7 +97,7 @@ def sweeps(levels_list, seeds, repeats, comm, rows) -> None:
             problem, loads = ensemble_problem(levels, seed, comm)
             times, counts = {way: [] for way in WAYS}, {}
             for repeat in range(repeats):
-                for way in sorted(WAYS, reverse=repeat % 2 == 1):   # alternated, first by turns
+                for way in alternated(sorted(WAYS), repeat):
                     options = WAYS[way]
                     iterations = outer = 0
                     worst = 0.0

@@ -31,7 +31,7 @@ import time
 
 import numpy as np
 
-from benchmarks.common import ensemble_problem, save_json, scene_problem, scene_topography, solve_scene
+from benchmarks.common import alternated, ensemble_problem, save_json, scene_problem, scene_topography, solve_scene
 
 #: the fresh part's surfaces: the large-grid scene's (Hurst 0.8) and a rougher one
 SURFACES = {"hurst 0.8": {}, "Δ 2.5": {"fractal_dimension": 2.5}}
@@ -53,11 +53,11 @@ def share(problem, result) -> float:
     return float(problem.allsum(np.count_nonzero(result.pressure > 0.0))) / problem.size
 
 
-def largest_difference(results: dict, reference: str) -> float:
-    """The largest force difference of any way from ``reference``'s, over its largest force."""
-    ref = results[reference].pressure
+def largest_difference(forces: dict, reference: str) -> float:
+    """The largest difference of any way's forces from ``reference``'s, over its largest force."""
+    ref = forces[reference]
     scale = float(np.abs(ref).max())
-    return max(float(np.abs(r.pressure - ref).max()) / scale for r in results.values())
+    return max(float(np.abs(f - ref).max()) / scale for f in forces.values())
 
 
 def sweeps(levels_list, seeds, repeats, settings, comm, rows) -> None:
@@ -69,8 +69,8 @@ def sweeps(levels_list, seeds, repeats, settings, comm, rows) -> None:
             seconds = {way: np.zeros((repeats, len(loads))) for way in settings}
             iterations, shares, last = {}, {}, {}
             for repeat in range(repeats):
-                for way in (list(settings) if repeat % 2 == 0 else list(settings)[::-1]):   # alternated
-                    counts, closed, states = [], [], []
+                for way in alternated(settings, repeat):
+                    counts, closed, forces = [], [], []
                     with make_solver(problem, "cg", settings=settings[way]) as solver:
                         for k, load in enumerate(loads):
                             t0 = time.perf_counter()
@@ -78,8 +78,8 @@ def sweeps(levels_list, seeds, repeats, settings, comm, rows) -> None:
                             seconds[way][repeat, k] = time.perf_counter() - t0
                             counts.append([result.linear_iterations, result.coarse_iterations])
                             closed.append(share(problem, result))
-                            states.append(result)
-                    iterations[way], shares[way], last[way] = counts, closed, states
+                            forces.append(result.pressure)      # the state's other fields let go
+                    iterations[way], shares[way], last[way] = counts, closed, forces
             median = {way: np.median(seconds[way], axis=0) for way in settings}
             loads_rows = []
             for k in range(len(loads)):
@@ -112,7 +112,7 @@ def fresh(sizes, pressures, repeats, settings, comm, rows) -> None:
                 seconds = {way: [] for way in settings}
                 results = {}
                 for repeat in range(repeats):
-                    for way in (list(settings) if repeat % 2 == 0 else list(settings)[::-1]):
+                    for way in alternated(settings, repeat):
                         t0 = time.perf_counter()
                         results[way] = solve_scene(problem, pressure, settings[way], gather=False)
                         seconds[way].append(time.perf_counter() - t0)
@@ -123,7 +123,7 @@ def fresh(sizes, pressures, repeats, settings, comm, rows) -> None:
                           for way in settings},
                        **{f"{way}_seconds": median[way] for way in settings},
                        **{f"{way}_ratio": median[way] / median["cg"] for way in settings},
-                       "force_difference": largest_difference(results, "cg")}
+                       "force_difference": largest_difference({way: r.pressure for way, r in results.items()}, "cg")}
                 rows.append(row)
                 print(json.dumps(row), flush=True)
             problem.destroy()

@@ -176,6 +176,13 @@ def ensemble_task(levels: int, seed: int = 1):
     return topo, rock, loads
 
 
+def alternated(ways, repeat: int) -> list:
+    """The ways a benchmark compares in one process, in their order on even repeats and reversed on
+    odd ones, so that each goes first by turns."""
+    ways = list(ways)
+    return ways if repeat % 2 == 0 else ways[::-1]
+
+
 def ensemble_problem(levels: int, seed: int, comm):
     """(problem, loads): :func:`ensemble_task`'s surface as an FFT NormalProblem on ``comm``, its
     one-time set-up (the operator's symbol and its preconditioner) done by an untimed solve of the

@@ -36,17 +36,32 @@ def require_finite_positive(name: str, value: float) -> float:
     return v
 
 
-def check_open_interval(name: str, value, low: float, high: float, meaning: str = "") -> float:
-    """``value`` as a float in the open interval (low, high); ``meaning`` follows the interval in
-    the error (booleans are refused: ``True`` is not a number here)."""
-    if isinstance(value, bool):
+def _number(name: str, value) -> float:
+    """``value`` as a float; booleans (Python's and numpy's: ``True`` is not a number here) and
+    what float() refuses raise :class:`InputError`."""
+    if isinstance(value, (bool, np.bool_)):
         raise InputError(name, f"must be a number, got {value!r}")
     try:
-        number = float(value)
+        return float(value)
     except (TypeError, ValueError):
         raise InputError(name, f"must be a number, got {value!r}") from None
+
+
+def check_open_interval(name: str, value, low: float, high: float, meaning: str = "") -> float:
+    """``value`` as a float in the open interval (low, high); ``meaning`` follows the interval in
+    the error (booleans are refused)."""
+    number = _number(name, value)
     if not (low < number < high):
         raise InputError(name, f"must lie in ({low:g}, {high:g}){meaning}, got {value!r}")
+    return number
+
+
+def check_closed_interval(name: str, value, low: float, high: float, meaning: str = "") -> float:
+    """``value`` as a float in the closed interval [low, high] (NaN refused); ``meaning`` follows
+    the interval in the error (booleans are refused)."""
+    number = _number(name, value)
+    if not (low <= number <= high):
+        raise InputError(name, f"must lie in [{low:g}, {high:g}]{meaning}, got {value!r}")
     return number
 
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..checks import check_closed_interval
 from ..errors import InputError
 from ..operators.balancing import BALANCING_FROM
 from ..operators.preconditioner import EDGE_SHARE
@@ -332,12 +333,9 @@ class CGSettings:
                               "the nodes from which a level takes it")
         _check_optional_count("primal_dual_from", self.primal_dual_from, 1, "never",
                               "the nodes from which a level takes it")
-        share = self.primal_dual_share
-        if isinstance(share, (bool, np.bool_)) or not isinstance(share, (int, float, np.integer, np.floating)) \
-                or not 0.0 <= share <= 1.0:
-            raise InputError("primal_dual_share", f"must be in [0, 1] (the share of a level's nodes in contact "
-                                                  f"from which its start settles the set first), "
-                                                  f"got {self.primal_dual_share!r}")
+        object.__setattr__(self, "primal_dual_share", check_closed_interval(
+            "primal_dual_share", self.primal_dual_share, 0.0, 1.0,
+            " (the share of a level's nodes in contact from which its start settles the set first)"))
         _check_optional_count("rotation_from", self.rotation_from, 1, "never",
                               "the nodes from which a level finds a free rotation with the forces")
 

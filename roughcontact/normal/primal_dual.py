@@ -34,9 +34,10 @@ of 2–3 % of the grid) a scratch copy took 26 products against 17
 iterations at 1024², and more time; from a quarter of the nodes in contact
 it took less time than the constrained CG from fresh starts and, but for
 one load, from a neighbour's along load sweeps (docs/solver-cost.md, "The
-primal–dual steps from a quarter of the nodes in contact"). :class:`.ConstrainedCGSolver` takes it on
-levels of ``CGSettings.primal_dual_from`` nodes or more whose start holds
-at least ``CGSettings.primal_dual_share`` of the level's nodes in contact.
+primal–dual steps from a quarter of the nodes in contact").
+:class:`.ConstrainedCGSolver` takes it on levels of
+``CGSettings.primal_dual_from`` nodes or more whose start holds at least
+``CGSettings.primal_dual_share`` of the level's nodes in contact.
 
 With the rotation free (load control, the moments imposed; levels of
 ``CGSettings.rotation_from`` nodes or more, every level by default, from

@@ -1,27 +1,35 @@
 #!/usr/bin/env python3
-"""Where the primal–dual steps pay with the rotation fixed: the share of the nodes in contact at the start.
+"""Where the primal–dual steps pay on warm and fresh starts: the share of the nodes in contact at the start.
 
-With the rotation fixed, levels of ``CGSettings.primal_dual_from`` nodes or more whose start holds
-``CGSettings.primal_dual_share`` of their nodes in contact or more settle the set by the primal–dual
-active set (roughcontact/normal/primal_dual.py); the others run the constrained CG alone. Each part
-solves the same problems both ways, alternated in one process (one rank, the FFT operator, the
-defaults otherwise): ``rule`` (the defaults) against ``cg`` (``primal_dual_from=None``), and, with
-``--steps``, ``steps`` (``primal_dual_share=0``: the steps from any start on those levels).
+Levels of ``CGSettings.primal_dual_from`` nodes or more whose start holds ``CGSettings.primal_dual_share``
+of their nodes in contact or more settle the set by the primal–dual active set first
+(roughcontact/normal/primal_dual.py) wherever the rotation is fixed or imposed, and in the Newton's
+first evaluation where it is found by the Newton; the others run the constrained CG alone. Each
+part solves the same problems every way, alternated in one process (one rank, the FFT operator,
+the defaults otherwise): ``rule`` (the defaults) against ``cg`` (``primal_dual_from=None``); with
+``--steps`` also ``steps`` (``primal_dual_share=0``: the steps from any start on those levels), and
+with ``--unscaled`` ``unscaled`` (the constrained CG alone with ``energy_scale=False``: under
+displacement control the forces not rescaled to the energy's minimum along them).
 
 - **sweeps**: an ensemble's task (:func:`benchmarks.common.ensemble_task`: a midpoint surface,
   Δ 2.3, 12 loads from 0.005 % to 0.5 % of E* A0 closing 2–95 % of the nodes), each load started
-  from the last one's solution (warm), for each seed. Per load: the share in contact at its start
-  (the last load's) and at its solution, the fine + coarse iterations and the seconds of each way
-  (median of ``--repeats``), their ratio to ``cg``; per sweep the totals (sums of the loads'
-  medians) and the largest force difference over the largest force;
+  from the last one's solution (warm), for each seed; ``--sweeps``: ``load`` (load control, the
+  rotation fixed), ``closure`` (displacement control at the closures an untimed load sweep of the
+  constrained CG found) or ``newton`` (load control with the rotation found by the Newton alone,
+  ``rotation_from=None`` in every way, so that only each load's first evaluation may settle
+  first). Per load: the share in contact at its start (the last load's) and at its solution, the
+  fine + coarse iterations and the seconds of each way (median of ``--repeats``, and each run's
+  in the order run: with an odd count the first way goes first once more), their ratio to
+  ``cg``; per sweep the totals (sums of the loads' medians) and the largest force difference over
+  the largest force;
 - **fresh**: the large-grid scene's surface (Hurst 0.8, and Δ 2.5) at mean pressures of 0.003 to
   0.3 E* (E* = 1, :func:`benchmarks.common.solve_scene`), each solve from the coarse grid's start
   (set-up included, as the large-grid benchmarks time it): the share in contact, the iterations and
   seconds of each way, their ratio to ``cg``.
 
-    python -m benchmarks.bench_settling [--parts sweeps fresh] [--levels 9 10] [--seeds 1 2]
-        [--sizes 512 1024] [--pressures 0.003 0.01 0.03 0.1 0.3] [--repeats 3] [--steps]
-        [--output results/bench_settling.json]
+    python -m benchmarks.bench_settling [--parts sweeps fresh] [--sweeps load closure newton]
+        [--levels 9 10] [--seeds 1 2] [--sizes 512 1024] [--pressures 0.003 0.01 0.03 0.1 0.3]
+        [--repeats 3] [--steps] [--unscaled] [--output results/bench_settling.json]
 """
 from __future__ import annotations
 
@@ -37,15 +45,35 @@ from benchmarks.common import alternated, ensemble_problem, save_json, scene_pro
 SURFACES = {"hurst 0.8": {}, "Δ 2.5": {"fractal_dimension": 2.5}}
 
 
-def ways(steps: bool) -> dict:
-    """The settings of each way compared: the defaults' rule, the constrained CG alone, and
-    (``steps``) the primal–dual steps from any start on the levels they may run on."""
+def ways(steps: bool, unscaled: bool = False, **common) -> dict:
+    """The settings of each way compared: the defaults' rule, the constrained CG alone, (``steps``)
+    the primal–dual steps from any start on the levels they may run on, and (``unscaled``) the
+    constrained CG alone without the energy's rescaling of the forces under displacement control
+    (``CGSettings.energy_scale``); ``common`` settings in every way."""
     from roughcontact.normal import CGSettings
 
-    chosen = {"rule": CGSettings(), "cg": CGSettings(primal_dual_from=None)}
+    chosen = {"rule": CGSettings(**common), "cg": CGSettings(primal_dual_from=None, **common)}
     if steps:
-        chosen["steps"] = CGSettings(primal_dual_share=0.0)
+        chosen["steps"] = CGSettings(primal_dual_share=0.0, **common)
+    if unscaled:
+        chosen["unscaled"] = CGSettings(primal_dual_from=None, energy_scale=False, **common)
     return chosen
+
+
+def sweep_steps(problem, loads, kind: str, settings) -> list:
+    """Each step of a sweep as a call on a solver: under load control with the rotation fixed
+    (``load``) or found by the Newton (``newton``), or under displacement control (``closure``) at
+    the closures an untimed load sweep of the constrained CG (``settings["cg"]``) found."""
+    from roughcontact.normal import make_solver
+
+    if kind == "load":
+        return [lambda solver, load=load: solver.solve_load(load, gather=False, rotation=(0.0, 0.0))
+                for load in loads]
+    if kind == "newton":
+        return [lambda solver, load=load: solver.solve_load(load, gather=False) for load in loads]
+    with make_solver(problem, "cg", settings=settings["cg"]) as solver:
+        closures = [solver.solve_load(load, gather=False, rotation=(0.0, 0.0)).closure for load in loads]
+    return [lambda solver, closure=closure: solver.solve_closure(closure, gather=False) for closure in closures]
 
 
 def share(problem, result) -> float:
@@ -60,21 +88,22 @@ def largest_difference(forces: dict, reference: str) -> float:
     return max(float(np.abs(f - ref).max()) / scale for f in forces.values())
 
 
-def sweeps(levels_list, seeds, repeats, settings, comm, rows) -> None:
+def sweeps(kind, levels_list, seeds, repeats, settings, comm, rows) -> None:
     from roughcontact.normal import make_solver
 
     for levels in levels_list:
         for seed in seeds:
             problem, loads = ensemble_problem(levels, seed, comm)
+            steps = sweep_steps(problem, loads, kind, settings)
             seconds = {way: np.zeros((repeats, len(loads))) for way in settings}
             iterations, shares, last = {}, {}, {}
             for repeat in range(repeats):
                 for way in alternated(settings, repeat):
                     counts, closed, forces = [], [], []
                     with make_solver(problem, "cg", settings=settings[way]) as solver:
-                        for k, load in enumerate(loads):
+                        for k, step in enumerate(steps):
                             t0 = time.perf_counter()
-                            result = solver.solve_load(load, gather=False, rotation=(0.0, 0.0))
+                            result = step(solver)
                             seconds[way][repeat, k] = time.perf_counter() - t0
                             counts.append([result.linear_iterations, result.coarse_iterations])
                             closed.append(share(problem, result))
@@ -88,9 +117,10 @@ def sweeps(levels_list, seeds, repeats, settings, comm, rows) -> None:
                 for way in settings:
                     entry[f"{way}_iterations"] = iterations[way][k]
                     entry[f"{way}_seconds"] = float(median[way][k])
+                    entry[f"{way}_runs"] = [float(t) for t in seconds[way][:, k]]   # in the order run
                     entry[f"{way}_ratio"] = float(median[way][k] / median["cg"][k])
                 loads_rows.append(entry)
-            row = {"part": "sweeps", "n": problem.topography.shape[0], "seed": seed, "loads": loads_rows,
+            row = {"part": "sweeps", "sweep": kind, "n": problem.topography.shape[0], "seed": seed, "loads": loads_rows,
                    **{f"{way}_seconds": float(median[way].sum()) for way in settings},
                    **{f"{way}_iterations": int(np.sum(iterations[way])) for way in settings},
                    **{f"{way}_ratio": float(median[way].sum() / median["cg"].sum()) for way in settings},
@@ -132,6 +162,9 @@ def fresh(sizes, pressures, repeats, settings, comm, rows) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--parts", nargs="+", choices=["sweeps", "fresh"], default=["sweeps", "fresh"])
+    parser.add_argument("--sweeps", nargs="+", choices=["load", "closure", "newton"], default=["load"],
+                        help="the sweeps' control: load (rotation fixed), closure, or load with the "
+                             "rotation found by the Newton alone")
     parser.add_argument("--levels", type=int, nargs="+", default=[9, 10],
                         help="the sweeps' surfaces: 2^levels + 1 nodes a side")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
@@ -141,6 +174,9 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--steps", action="store_true",
                         help="also the primal-dual steps from any start (primal_dual_share=0)")
+    parser.add_argument("--unscaled", action="store_true",
+                        help="also the constrained CG without the energy's rescaling of the forces under "
+                             "displacement control (energy_scale=False)")
     parser.add_argument("--output", default="results/bench_settling.json")
     args = parser.parse_args()
     if args.repeats < 1:
@@ -151,10 +187,12 @@ def main() -> None:
     petsc4py.init([])
     from mpi4py import MPI
 
-    settings = ways(args.steps)
+    settings = ways(args.steps, args.unscaled)
     rows: list[dict] = []
     if "sweeps" in args.parts:
-        sweeps(args.levels, args.seeds, args.repeats, settings, MPI.COMM_SELF, rows)
+        for kind in args.sweeps:
+            chosen = ways(args.steps, args.unscaled, rotation_from=None) if kind == "newton" else settings
+            sweeps(kind, args.levels, args.seeds, args.repeats, chosen, MPI.COMM_SELF, rows)
     if "fresh" in args.parts:
         fresh(args.sizes, args.pressures, args.repeats, settings, MPI.COMM_SELF, rows)
     save_json(rows, args.output)

@@ -275,6 +275,70 @@ def test_bad_alternate_return_is_named(value):
         CGSettings(alternate_return=value)
 
 
+@pytest.mark.parametrize("value", [1, "yes", None])
+def test_bad_energy_scale_is_named(value):
+    with pytest.raises(InputError, match="energy_scale"):
+        CGSettings(energy_scale=value)
+
+
+def test_a_warm_closure_sweep_with_the_energy_scale_is_the_active_sets(comm):
+    """Three closures of a sweep, each started from the last one's solution: with the forces
+    rescaled to the energy's minimum (the default) and without, the paper's active set's states
+    (KSP) to the force tolerance; the rescaling changes the path (the iterations differ)."""
+    problem = NormalProblem(rough(64), FLAT, comm, operator="fft")
+    closures = (0.04, 0.06, 0.08)
+    sweeps = {}
+    for scaled in (True, False):
+        with make_solver(problem, "cg", settings=CGSettings(energy_scale=scaled)) as solver:
+            sweeps[scaled] = [solver.solve_closure(c) for c in closures]
+    references = [solve(problem, "ksp", lambda s, c=c: s.solve_closure(c)) for c in closures]
+    problem.destroy()
+    assert 0.0 < references[0].contact_fraction < references[-1].contact_fraction < 1.0
+    for scaled in (True, False):
+        for reference, result in zip(references, sweeps[scaled]):
+            assert_same_state(reference, result)
+    assert [r.linear_iterations for r in sweeps[True]] != [r.linear_iterations for r in sweeps[False]]
+
+
+def energy(problem, forces, w):
+    """Π(p) = ½ pᵀHp − pᵀw over all ranks, H p by the operator's own double-precision product."""
+    return float(problem.allsum(0.5 * forces @ problem.displacement(forces) - forces @ w))
+
+
+@pytest.mark.parametrize("rotation", [(0.0, 0.0), (0.05, -0.02)], ids=["rotation zero", "rotation imposed"])
+def test_the_energy_scale_is_the_minimum_of_the_energy_along_the_forces(comm, rotation):
+    """Under displacement control the forces are rescaled by s = pᵀw / pᵀHp: Π(s p) is a parabola
+    in s, so Π at s is below Π at s (1 ± 1e-3) by ½ (1e-3 s)² pᵀHp, and the rescaled H p is the
+    operator's product of the rescaled forces (H is linear; round-off 1e-12 of its largest value).
+    At a converged state the scale is 1 to the solve's tolerance: complementarity makes pᵀg = 0,
+    so pᵀw = pᵀHp (g = H p − w; 1e-6, the forces' accuracy)."""
+    from roughcontact.normal.constrained_cg import _scale_to_energy
+
+    problem = NormalProblem(rough(48), FLAT, comm, operator="fft")
+    rigid = np.array([0.08, *rotation])
+    w = problem.interpenetration(rigid)
+    # forces on the nodes the rigid motion makes interpenetrate, so that pᵀw > 0
+    forces = np.random.default_rng(3 + comm.rank).random(problem.gap0.size) * 1e-3 * (w > 0.0)
+    displacement = problem.displacement(forces)
+    scaled, moved = forces.copy(), displacement.copy()
+    s = _scale_to_energy(problem, scaled, moved, w, None)
+    curvature = float(problem.allsum(forces @ displacement))
+    assert s > 0.0 and s != 1.0
+    np.testing.assert_allclose(scaled, s * forces, rtol=1e-15, atol=0)
+    np.testing.assert_allclose(moved, problem.displacement(scaled), rtol=0,
+                               atol=1e-12 * float(problem.allmax(np.abs(moved).max())))
+    lowest = energy(problem, scaled, w)
+    for factor in (1 - 1e-3, 1 + 1e-3):
+        assert energy(problem, factor * scaled, w) - lowest == pytest.approx(0.5 * (1e-3 * s) ** 2 * curvature,
+                                                                             rel=1e-3)
+    with make_solver(problem, "cg") as solver:
+        solver.solve_closure(0.08, rotation=rotation, gather=False)
+        solved = solver.forces.copy()             # the state's forces, this rank's nodes
+    converged = _scale_to_energy(problem, solved, problem.displacement(solved), w, None)
+    problem.destroy()
+    assert abs(converged - 1.0) <= 1e-6
+
+
 def test_hertz_on_the_fft_path_beyond_dense_grids(comm):
     """Hertz at a/s = 16, 32, 64 (a 211² grid: 15 GiB as a dense matrix): RMS errors of the
     load and contact radius over four approaches (a single approach's error oscillates as the

@@ -39,7 +39,10 @@ preconditioner:
    with dᵀHd read off its spectrum (Parseval); where that step cuts too,
    H (c − α d) is one product and H d's inverse transforms are skipped, as
    on a step that ends in an exact H p (a refresh);
-4. the load is restored exactly, p ← p · P/Σp.
+4. the load is restored exactly, p ← p · P/Σp; under displacement control
+   (no load to restore) p and H p are rescaled instead by s = pᵀw / pᵀHp,
+   the minimum of the energy along p (``CGSettings.energy_scale``), also
+   at the start.
 
 On levels of ``CGSettings.primal_dual_from`` nodes or more whose start (a
 coarse grid's, the punches' or a neighbour's) holds a quarter of their
@@ -354,6 +357,11 @@ class ConstrainedCGSolver(NormalSolver):
         # whose Φ compares states through pᵀg (a 64² state at tol 1e-3 was off by 5e-8 of Φ)
         exact = lambda: pb.displacement(forces, single and not forces_in_double)    # noqa: E731
         displacement = exact()
+        # under displacement control the forces' own scale, set by the energy along them
+        # (``CGSettings.energy_scale``), at the start and after every step
+        scaling = load is None and settings.energy_scale
+        if scaling:
+            _scale_to_energy(pb, forces, displacement, w, None)
         direction = np.zeros_like(forces)              # zero outside the free set
         last_z = np.zeros(forces.size, dtype=np.float32)   # z of the last iteration on its free set
         clipped = np.zeros_like(forces)                # c of the last cut at its nodes, zero elsewhere
@@ -587,6 +595,8 @@ class ConstrainedCGSolver(NormalSolver):
                 if cut:
                     clipped[cut_nodes] = 0.0
                 holding = False
+                if scaling:
+                    _scale_to_energy(pb, forces, displacement, w, working, pending)
                 continue
             # H (p − α d + c) = H p − α H d + H c. After a cut whose far field cannot wait, or
             # with the far fields deferred grown past `allowed` (``CGSettings.defer``), the step
@@ -635,6 +645,8 @@ class ConstrainedCGSolver(NormalSolver):
             passes.scale(displacement, scale, workers)   # H is linear: a uniform rescaling is exact
             if pending is not None:
                 pending.rescale(scale)
+            if scaling:
+                _scale_to_energy(pb, forces, displacement, w, working, pending)
         raise ConvergenceError(
             "CG_MAX_ITERATIONS",
             f"{settings.max_iterations} bound-constrained CG iterations without meeting tol={tol:g} "
@@ -802,6 +814,37 @@ class ConstrainedCGSolver(NormalSolver):
         slack = float(self.problem.allsum(forces[contact] @ gap[contact]))
         gap[contact] = 0.0
         return ContactState(forces, contact, gap, 1, iterations, residual, tuple(history), slack)
+
+
+def _scale_to_energy(pb, forces: np.ndarray, displacement: np.ndarray, w: np.ndarray | None,
+                     nodes: np.ndarray | None, pending=None) -> float:
+    """Under displacement control, the forces p and their displacement H p rescaled in place (with
+    the far fields ``pending`` defers) by the s > 0 that minimises the potential energy along p,
+    Π(s p) = ½ s² pᵀHp − s pᵀw: s = pᵀw / pᵀHp (w = C r − gap0, Eq. 7; −gap0 where ``w`` is None).
+    The counterpart of Polonsky & Keer's rescaling to P under load control: CG's cuts and
+    restarts keep losing the forces' own scale, which this restores exactly (H is linear, and
+    s p ≥ 0 where p ≥ 0). ``nodes``: every node where p may be nonzero on this rank (None: all).
+    Returns s (1 where pᵀHp or pᵀw is not positive: nothing to gain along p); collective."""
+    workers = pb.flexibility.workers
+    if nodes is None:
+        p, hp, gap0, imposed = forces, displacement, pb.gap0, w
+    else:
+        p, hp, gap0 = (passes.gather(field, nodes, workers) for field in (forces, displacement, pb.gap0))
+        imposed = None if w is None else passes.gather(w, nodes, workers)
+    along_w = -float(p @ gap0) if imposed is None else float(p @ imposed)
+    curvature, along_w = pb.allsum(np.array([float(p @ hp), along_w]))
+    if not (curvature > 0.0 and along_w > 0.0):
+        return 1.0
+    scale = float(along_w / curvature)
+    if nodes is None:
+        passes.scale(forces, scale, workers)
+    else:
+        p *= scale
+        passes.scatter(forces, nodes, p, workers)
+    passes.scale(displacement, scale, workers)
+    if pending is not None:
+        pending.rescale(scale)
+    return scale
 
 
 def _hold_back(free: np.ndarray, contact: np.ndarray, left: np.ndarray, squares: np.ndarray, iteration: int,

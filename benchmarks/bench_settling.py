@@ -8,8 +8,8 @@ first evaluation where it is found by the Newton; the others run the constrained
 part solves the same problems every way, alternated in one process (one rank, the FFT operator,
 the defaults otherwise): ``rule`` (the defaults) against ``cg`` (``primal_dual_from=None``); with
 ``--steps`` also ``steps`` (``primal_dual_share=0``: the steps from any start on those levels), and
-with ``--unscaled`` ``unscaled`` (the constrained CG alone with ``energy_scale=False``: under
-displacement control the forces not rescaled to the energy's minimum along them).
+with ``--unscaled`` ``unscaled`` in the closure sweeps (the constrained CG alone with
+``energy_scale=False``: the forces not rescaled to the energy's minimum along them).
 
 - **sweeps**: an ensemble's task (:func:`benchmarks.common.ensemble_task`: a midpoint surface,
   Δ 2.3, 12 loads from 0.005 % to 0.5 % of E* A0 closing 2–95 % of the nodes), each load started
@@ -176,7 +176,7 @@ def main() -> None:
                         help="also the primal-dual steps from any start (primal_dual_share=0)")
     parser.add_argument("--unscaled", action="store_true",
                         help="also the constrained CG without the energy's rescaling of the forces under "
-                             "displacement control (energy_scale=False)")
+                             "displacement control (energy_scale=False), in the closure sweeps")
     parser.add_argument("--output", default="results/bench_settling.json")
     args = parser.parse_args()
     if args.repeats < 1:
@@ -187,14 +187,15 @@ def main() -> None:
     petsc4py.init([])
     from mpi4py import MPI
 
-    settings = ways(args.steps, args.unscaled)
     rows: list[dict] = []
     if "sweeps" in args.parts:
         for kind in args.sweeps:
-            chosen = ways(args.steps, args.unscaled, rotation_from=None) if kind == "newton" else settings
+            # the rescaling acts only under displacement control: elsewhere "unscaled" is "cg"
+            chosen = ways(args.steps, args.unscaled and kind == "closure",
+                          **({"rotation_from": None} if kind == "newton" else {}))
             sweeps(kind, args.levels, args.seeds, args.repeats, chosen, MPI.COMM_SELF, rows)
     if "fresh" in args.parts:
-        fresh(args.sizes, args.pressures, args.repeats, settings, MPI.COMM_SELF, rows)
+        fresh(args.sizes, args.pressures, args.repeats, ways(args.steps), MPI.COMM_SELF, rows)
     save_json(rows, args.output)
 
 

@@ -309,7 +309,8 @@ def energy(problem, forces, w):
 def test_the_energy_scale_is_the_minimum_of_the_energy_along_the_forces(comm, rotation):
     """Under displacement control the forces are rescaled by s = pᵀw / pᵀHp: Π(s p) is a parabola
     in s, so Π at s is below Π at s (1 ± 1e-3) by ½ (1e-3 s)² pᵀHp, and the rescaled H p is the
-    operator's product of the rescaled forces (H is linear; round-off 1e-12 of its largest value).
+    operator's product of the rescaled forces (H is linear; round-off 1e-12 of its largest value),
+    the same whether the sums run over every node or over a set of nodes holding the forces.
     At a converged state the scale is 1 to the solve's tolerance: complementarity makes pᵀg = 0,
     so pᵀw = pᵀHp (g = H p − w; 1e-6, the forces' accuracy)."""
     from roughcontact.normal.constrained_cg import _scale_to_energy
@@ -327,6 +328,12 @@ def test_the_energy_scale_is_the_minimum_of_the_energy_along_the_forces(comm, ro
     np.testing.assert_allclose(scaled, s * forces, rtol=1e-15, atol=0)
     np.testing.assert_allclose(moved, problem.displacement(scaled), rtol=0,
                                atol=1e-12 * float(problem.allmax(np.abs(moved).max())))
+    # the CG's calls name the free set's nodes (a superset of the forces' own): the same s and forces
+    on_set, on_set_displacement = forces.copy(), displacement.copy()
+    nodes = np.flatnonzero((forces > 0.0) | (np.arange(forces.size) % 3 == 0))
+    assert _scale_to_energy(problem, on_set, on_set_displacement, w, nodes) == pytest.approx(s, rel=1e-12)
+    np.testing.assert_allclose(on_set, scaled, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(on_set_displacement, moved, rtol=1e-12, atol=0)
     lowest = energy(problem, scaled, w)
     for factor in (1 - 1e-3, 1 + 1e-3):
         assert energy(problem, factor * scaled, w) - lowest == pytest.approx(0.5 * (1e-3 * s) ** 2 * curvature,

@@ -302,12 +302,13 @@ class CGSettings:
         the counterpart of Polonsky & Keer's rescaling to P under load
         control, for the mode CG otherwise keeps losing at its cuts and
         restarts, the forces' own scale. Exact (H is linear, the bounds
-        hold for s > 0) and two dot products on the free set a step. An
+        hold for s > 0): two dot products on the free set and a pass over
+        H p a step. An
         ensemble task's 12 closures (the closures of its load sweep, each
         started from the last one's solution, the constrained CG alone, one
         rank): 821 / 818 → 589 / 587 fine + coarse iterations at 513² and
-        1254 / 1117 → 789 / 757 at 1025² (seeds 1 / 2), 21.4 → 14.6 s at
-        513² (docs/solver-cost.md, "The forces' scale under displacement
+        1254 / 1117 → 789 / 757 at 1025² (seeds 1 / 2); at 513² 13.5 / 13.4
+        s against 17.3 / 19.2 s, alternated, medians of 3 (docs/solver-cost.md, "The forces' scale under displacement
         control"). False: no rescaling (Polonsky & Keer's CG has none under
         displacement control).
     """

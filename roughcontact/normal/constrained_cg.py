@@ -642,9 +642,10 @@ class ConstrainedCGSolver(NormalSolver):
                         pending.settle(clipped, cut_nodes if cut else working[:0], scattered)
                 if cut:
                     clipped[cut_nodes] = 0.0
-            passes.scale(displacement, scale, workers)   # H is linear: a uniform rescaling is exact
-            if pending is not None:
-                pending.rescale(scale)
+            if scale != 1.0:                           # (under displacement control: the energy's, below)
+                passes.scale(displacement, scale, workers)   # H is linear: a uniform rescaling is exact
+                if pending is not None:
+                    pending.rescale(scale)
             if scaling:
                 _scale_to_energy(pb, forces, displacement, w, working, pending)
         raise ConvergenceError(
@@ -824,14 +825,15 @@ def _scale_to_energy(pb, forces: np.ndarray, displacement: np.ndarray, w: np.nda
     The counterpart of Polonsky & Keer's rescaling to P under load control: CG's cuts and
     restarts keep losing the forces' own scale, which this restores exactly (H is linear, and
     s p ≥ 0 where p ≥ 0). ``nodes``: every node where p may be nonzero on this rank (None: all).
-    Returns s (1 where pᵀHp or pᵀw is not positive: nothing to gain along p); collective."""
+    Where far fields are deferred, H p lacks them and s is the minimum of the energy the iteration
+    holds. Returns s (1 where pᵀHp or pᵀw is not positive: nothing to gain along p); collective."""
     workers = pb.flexibility.workers
+    imposed = -pb.gap0 if w is None else w         # −gap0 only at δz = 0 with no rotation: rare
     if nodes is None:
-        p, hp, gap0, imposed = forces, displacement, pb.gap0, w
+        p, hp = forces, displacement
     else:
-        p, hp, gap0 = (passes.gather(field, nodes, workers) for field in (forces, displacement, pb.gap0))
-        imposed = None if w is None else passes.gather(w, nodes, workers)
-    along_w = -float(p @ gap0) if imposed is None else float(p @ imposed)
+        p, hp, imposed = (passes.gather(field, nodes, workers) for field in (forces, displacement, imposed))
+    along_w = float(p @ imposed)
     curvature, along_w = pb.allsum(np.array([float(p @ hp), along_w]))
     if not (curvature > 0.0 and along_w > 0.0):
         return 1.0

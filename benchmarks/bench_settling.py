@@ -64,15 +64,15 @@ def sweep_steps(problem, loads, kind: str, settings) -> list:
     """Each step of a sweep as a call on a solver: under load control with the rotation fixed
     (``load``) or found by the Newton (``newton``), or under displacement control (``closure``) at
     the closures an untimed load sweep of the constrained CG (``settings["cg"]``) found."""
-    from roughcontact.normal import make_solver
+    from roughcontact.normal import solve_loads
 
     if kind == "load":
         return [lambda solver, load=load: solver.solve_load(load, gather=False, rotation=(0.0, 0.0))
                 for load in loads]
     if kind == "newton":
         return [lambda solver, load=load: solver.solve_load(load, gather=False) for load in loads]
-    with make_solver(problem, "cg", settings=settings["cg"]) as solver:
-        closures = [solver.solve_load(load, gather=False, rotation=(0.0, 0.0)).closure for load in loads]
+    closures = [r.closure for r in solve_loads(problem, loads, rotation=(0.0, 0.0), method="cg",
+                                               settings=settings["cg"])]
     return [lambda solver, closure=closure: solver.solve_closure(closure, gather=False) for closure in closures]
 
 

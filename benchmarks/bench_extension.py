@@ -1,0 +1,177 @@
+#!/usr/bin/env python3
+"""The Fourier preconditioner on the set's smooth extension: fixed-set PCG against the solver's own.
+
+The solver's preconditioner of H_SS is M = R_S C⁻¹ R_Sᵀ (C the kernel's circulant on its
+period), less the edge correction and the hole charge, which approximate the Schur term of
+the exact inverse on the set, C_SS⁻¹ = B_SS − B_SO B_OO⁻¹ B_OS (B = C⁻¹, O the nodes outside S;
+docs/solver-cost.md, "The ceiling of the set's Fourier preconditioner"). That Schur complement
+is the least of Eᵀ B E over the extensions E = [I; T] of a field on S to the nodes outside it
+(T: S → O; the least at the B-harmonic extension T = −B_OO⁻¹ B_OS). So for ANY T
+
+    M_T = Eᵀ B E = R_S B (x on S, T x on O) + Tᵀ R_O B (the same field)
+
+is symmetric, at least C_SS⁻¹ (M_T C_SS ≥ 1), and M_T = M at T = 0. A T close to the
+harmonic extension on the smooth fields takes the top of M C_SS's spectrum: the field of one
+sign over a dust of small islands, which M prices as if the ground between the islands were held
+flat (the ensemble task's sets at 4–40 % in contact: Ritz values up to 10–25 with the solver's
+M, C_SS⁻¹ itself 1.2–1.9).
+
+T here is a normalised local average of the set's values: T x = G(x) / max(G(1_S), τ) on O
+(G a Gaussian filter of width σ nodes over the grid, zero beyond it, or a box filter of width
+nodes a side), so that next to the set the extension is the local mean of its values and far
+from it the extension fades with G. One application costs the solver's one periodic product (of
+a field on the whole grid) and two filters.
+
+Rows, one per set and preconditioner: fixed-set PCG iterations to 1e-8 (b = H_SS of a random
+positive vector, as benchmarks/bench_deflation.py) and the Ritz range after 40 Lanczos steps,
+for ``plain`` (M, T = 0), ``solver`` (the solver's whole preconditioner on the settled set:
+edge correction and hole charge), ``extension-<filter><width>-<τ>`` (M_T; ``asymmetry``: |aᵀM_T b − bᵀM_T a|
+over |aᵀM_T b| for two random a, b, round-off for Eᵀ B E) and, with ``--exact``, ``exact``
+(C_SS⁻¹, the ceiling; B_OO⁻¹ by an inner CG to 1e-10). Sets: the solved contact sets of
+:func:`benchmarks.common.ensemble_task`'s loads (``--loads``, the rotation fixed, each load
+warm-started from the last, ``--levels``, ``--seeds``), and of the large-grid scenes
+(``--scenes scene full``: 0.01 E* and Δ 2.5 at 1 E*, ``--sizes``). One rank.
+
+    python -m benchmarks.bench_extension [--levels 9] [--seeds 1] [--loads 2 5 8 11]
+        [--scenes scene full] [--sizes 512] [--extensions gauss:2:0.3 box:5:0.3] [--exact]
+        [--output results/bench_extension.json]
+"""
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+#: the Gaussian filters' reach, in widths σ
+TRUNCATE = 3.0
+
+
+class Extension:
+    """M_T = Eᵀ B E on the set S (this rank's node indices ``contact`` of a whole-grid footprint),
+    T the normalised Gaussian average of width ``sigma`` nodes, its denominator at least ``tau``
+    (module docstring)."""
+
+    def __init__(self, flexibility, shape: tuple[int, int], contact: np.ndarray, filter: str, width: float,
+                 tau: float):
+        from scipy.ndimage import gaussian_filter, uniform_filter
+
+        self.flexibility, self.shape, self.contact = flexibility, shape, contact
+        if filter == "gauss":
+            self.smooth = lambda field: gaussian_filter(field, width, mode="constant", truncate=TRUNCATE)
+        else:                                            # a box of width nodes a side, float32
+            self.smooth = lambda field: uniform_filter(field.astype(np.float32), int(width),
+                                                       mode="constant").astype(float)
+        members = np.zeros(shape)
+        members.reshape(-1)[contact] = 1.0
+        # 1 / max(G(1_S), τ) on O, zero on S: T's normalisation, and the mask of O with it
+        self.weight = (1.0 - members) / np.maximum(self.smooth(members), tau)
+        self.every = np.arange(members.size)
+
+    def __call__(self, values: np.ndarray) -> np.ndarray:
+        field = np.zeros(self.shape)
+        field.reshape(-1)[self.contact] = values
+        extended = self.smooth(field) * self.weight          # T x on O, zero on S
+        extended.reshape(-1)[self.contact] = values
+        z = self.flexibility.precondition_nodes(extended.reshape(-1), self.every).reshape(self.shape)
+        # R_S B E x + Tᵀ R_O B E x: T's transpose is G of the weighted field, read on S
+        return z.reshape(-1)[self.contact] + self.smooth(z * self.weight).reshape(-1)[self.contact]
+
+
+def set_rows(problem, result, base: dict, extensions, exact: bool):
+    """The rows of one solved set (module docstring)."""
+    from benchmarks.bench_deflation import exact_inverse, lanczos_ritz, pcg, solver_preconditioner
+
+    flexibility = problem.flexibility
+    shape = problem.topography.shape
+    contact = np.flatnonzero(result.contact[problem.topography.footprint])
+
+    def apply(values):
+        full = np.zeros(problem.size)
+        full[contact] = values
+        return flexibility.product(full)[contact]
+
+    rhs = apply(np.abs(np.random.default_rng(0).standard_normal(contact.size)))
+    ways = {"plain": lambda values: flexibility.precondition_nodes(values, contact),
+            "solver": solver_preconditioner(problem, contact, result.contact)}
+    for filter, width, tau in extensions:
+        ways[f"extension-{filter}{width:g}-{tau:g}"] = Extension(flexibility, shape, contact, filter, width, tau)
+    if exact:
+        ways["exact"] = exact_inverse(flexibility, contact, 1e-10)[0]
+    share = contact.size / problem.size
+    a, b = np.random.default_rng(2).standard_normal((2, contact.size))
+    for name, precondition in ways.items():
+        ritz = lanczos_ritz(apply, precondition, np.random.default_rng(1).standard_normal(contact.size), 40)
+        row = {**base, "share": share, "preconditioner": name, "iterations": pcg(apply, precondition, rhs),
+               "ritz_min": float(ritz[0]), "ritz_max": float(ritz[-1])}
+        if name.startswith("extension"):             # Eᵀ B E is symmetric: aᵀ M_T b = bᵀ M_T a
+            ab, ba = a @ precondition(b), b @ precondition(a)
+            row["asymmetry"] = float(abs(ab - ba) / abs(ab))
+        yield row
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--levels", type=int, nargs="*", default=[9],
+                        help="the ensemble task's surfaces: 2^levels + 1 nodes a side")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[1])
+    parser.add_argument("--loads", type=int, nargs="+", default=[2, 5, 8, 11],
+                        help="which of the task's 12 loads' solved sets")
+    parser.add_argument("--scenes", nargs="*", choices=["scene", "full"], default=["scene", "full"])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[512], help="the scenes' grids")
+    parser.add_argument("--extensions", nargs="+", default=["gauss:2:0.3", "box:5:0.3"],
+                        help="filter:width:τ of each extension: gauss (width σ in nodes) or box (width "
+                             "nodes a side, odd), τ the floor of its normalisation")
+    parser.add_argument("--exact", action="store_true", help="also C_SS⁻¹ itself (slow)")
+    parser.add_argument("--output", default="results/bench_extension.json")
+    args = parser.parse_args()
+    extensions = []
+    for spec in args.extensions:
+        parts = spec.split(":")
+        try:
+            filter, width, tau = parts[0], float(parts[1]), float(parts[2])
+        except (IndexError, ValueError):
+            parser.error(f"--extensions takes filter:width:τ, e.g. gauss:2:0.3, not {spec!r}")
+        if filter not in ("gauss", "box") or len(parts) != 3 or not (width > 0.0 and tau > 0.0):
+            parser.error(f"--extensions: gauss or box, a positive width and τ, not {spec!r}")
+        extensions.append((filter, width, tau))
+    if any(not 0 <= k < 12 for k in args.loads):
+        parser.error("--loads are indices of the task's 12 loads, 0-11")
+
+    import petsc4py
+
+    petsc4py.init([])
+    from mpi4py import MPI
+
+    from benchmarks.bench_products import PRESSURES, SHAPES
+    from benchmarks.common import emit, ensemble_problem, save_json, scene_problem, scene_topography, solve_scene
+    from roughcontact.normal import make_solver
+
+    comm = MPI.COMM_WORLD
+    if comm.Get_size() != 1:
+        parser.error("one rank: the extension is built on the whole grid")
+    rows: list[dict] = []
+    for levels in args.levels:
+        for seed in args.seeds:
+            problem, loads = ensemble_problem(levels, seed, comm)
+            with make_solver(problem, "cg") as solver:
+                for k, load in enumerate(loads[:max(args.loads) + 1]):
+                    result = solver.solve_load(load, rotation=(0.0, 0.0))
+                    if k in args.loads:
+                        base = {"set": "ensemble task", "n": 2**levels + 1, "seed": seed, "load": k,
+                                "fine_iterations": result.linear_iterations}
+                        for row in set_rows(problem, result, base, extensions, args.exact):
+                            emit(comm, rows, row)
+            problem.destroy()
+    for scene in args.scenes:
+        for n in args.sizes:
+            problem = scene_problem(scene_topography(n, **SHAPES[scene]), comm)
+            result = solve_scene(problem, PRESSURES[scene])
+            base = {"set": scene, "n": n, "fine_iterations": result.linear_iterations}
+            for row in set_rows(problem, result, base, extensions, args.exact):
+                emit(comm, rows, row)
+            problem.destroy()
+    save_json(rows, args.output)
+
+
+if __name__ == "__main__":
+    main()

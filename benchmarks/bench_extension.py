@@ -32,8 +32,16 @@ over |aᵀM_T b| for two random a, b, round-off for Eᵀ B E) and, with ``--exac
 warm-started from the last, ``--levels``, ``--seeds``), and of the large-grid scenes
 (``--scenes scene full``: 0.01 E* and Δ 2.5 at 1 E*, ``--sizes``). One rank.
 
-    python -m benchmarks.bench_extension [--levels 9] [--seeds 1] [--loads 2 5 8 11]
-        [--scenes scene full] [--sizes 512] [--extensions gauss:2:0.3 box:5:0.3] [--exact]
+Part ``sweeps`` (``--parts``): the solver with its extension (the defaults, ``extension``)
+against ``CGSettings(extension_from=None)`` (``without``) along the ensemble task's 12-load
+sweeps (``--sweep-levels``, ``--seeds``; each load warm-started from the last), the rotation
+fixed and free (a study's default), alternated in one process, medians of ``--repeats``: fine
+and coarse iterations and seconds per load and per sweep, and the largest difference of the
+last load's forces over the largest force.
+
+    python -m benchmarks.bench_extension [--parts sets sweeps] [--levels 9] [--seeds 1]
+        [--loads 2 5 8 11] [--scenes scene full] [--sizes 512]
+        [--extensions gauss:2:0.3 box:5:0.3] [--exact] [--sweep-levels 9] [--repeats 3]
         [--output results/bench_extension.json]
 """
 from __future__ import annotations
@@ -109,6 +117,43 @@ def set_rows(problem, result, base: dict, extensions, exact: bool):
         yield row
 
 
+def sweep_rows(levels: int, seed: int, rotation: str, repeats: int, comm):
+    """The ``sweeps`` part's rows for one surface and rotation (module docstring)."""
+    import time
+
+    from benchmarks.common import alternated, ensemble_problem
+    from roughcontact.normal import CGSettings, make_solver
+
+    ways = {"extension": CGSettings(), "without": CGSettings(extension_from=None)}
+    problem, loads = ensemble_problem(levels, seed, comm)
+    fixed = {"rotation": (0.0, 0.0)} if rotation == "fixed" else {}
+    seconds = {way: np.zeros((repeats, len(loads))) for way in ways}
+    counts, last = {}, {}
+    for repeat in range(repeats):
+        for way in alternated(ways, repeat):
+            with make_solver(problem, "cg", settings=ways[way]) as solver:
+                runs = []
+                for k, load in enumerate(loads):
+                    start = time.perf_counter()
+                    result = solver.solve_load(load, gather=False, **fixed)
+                    seconds[way][repeat, k] = time.perf_counter() - start
+                    runs.append([result.linear_iterations, result.coarse_iterations])
+            counts[way], last[way] = runs, result.pressure
+    scale = float(problem.allmax(np.abs(last["without"]).max()))
+    difference = float(problem.allmax(np.abs(last["extension"] - last["without"]).max())) / scale
+    problem.destroy()
+    median = {way: np.median(seconds[way], axis=0) for way in ways}
+    row = {"part": "sweeps", "n": 2**levels + 1, "seed": seed, "rotation": rotation, "repeats": repeats,
+           "force_difference": difference}
+    for way in ways:
+        row[f"{way}_iterations"] = counts[way]
+        row[f"{way}_seconds"] = [float(t) for t in median[way]]
+        row[f"{way}_total_seconds"] = float(median[way].sum())
+        row[f"{way}_fine_iterations"] = int(sum(c[0] for c in counts[way]))
+    row["ratio"] = row["extension_total_seconds"] / row["without_total_seconds"]
+    return row
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--levels", type=int, nargs="*", default=[9],
@@ -122,6 +167,10 @@ def main() -> None:
                         help="filter:width:τ of each extension: gauss (width σ in nodes) or box (width "
                              "nodes a side, odd), τ the floor of its normalisation")
     parser.add_argument("--exact", action="store_true", help="also C_SS⁻¹ itself (slow)")
+    parser.add_argument("--parts", nargs="+", choices=["sets", "sweeps"], default=["sets", "sweeps"])
+    parser.add_argument("--sweep-levels", type=int, nargs="+", default=[9],
+                        help="the sweeps' surfaces: 2^levels + 1 nodes a side")
+    parser.add_argument("--repeats", type=int, default=3, help="the sweeps' runs of each way")
     parser.add_argument("--output", default="results/bench_extension.json")
     args = parser.parse_args()
     extensions = []
@@ -136,6 +185,8 @@ def main() -> None:
         extensions.append((filter, width, tau))
     if any(not 0 <= k < 12 for k in args.loads):
         parser.error("--loads are indices of the task's 12 loads, 0-11")
+    if args.repeats < 1:
+        parser.error("--repeats must be at least 1")
 
     import petsc4py
 
@@ -150,26 +201,31 @@ def main() -> None:
     if comm.Get_size() != 1:
         parser.error("one rank: the extension is built on the whole grid")
     rows: list[dict] = []
-    for levels in args.levels:
+    sets = "sets" in args.parts
+    for levels in args.levels if sets else []:
         for seed in args.seeds:
             problem, loads = ensemble_problem(levels, seed, comm)
             with make_solver(problem, "cg") as solver:
                 for k, load in enumerate(loads[:max(args.loads) + 1]):
                     result = solver.solve_load(load, rotation=(0.0, 0.0))
                     if k in args.loads:
-                        base = {"set": "ensemble task", "n": 2**levels + 1, "seed": seed, "load": k,
+                        base = {"part": "sets", "set": "ensemble task", "n": 2**levels + 1, "seed": seed, "load": k,
                                 "fine_iterations": result.linear_iterations}
                         for row in set_rows(problem, result, base, extensions, args.exact):
                             emit(comm, rows, row)
             problem.destroy()
-    for scene in args.scenes:
+    for scene in args.scenes if sets else []:
         for n in args.sizes:
             problem = scene_problem(scene_topography(n, **SHAPES[scene]), comm)
             result = solve_scene(problem, PRESSURES[scene])
-            base = {"set": scene, "n": n, "fine_iterations": result.linear_iterations}
+            base = {"part": "sets", "set": scene, "n": n, "fine_iterations": result.linear_iterations}
             for row in set_rows(problem, result, base, extensions, args.exact):
                 emit(comm, rows, row)
             problem.destroy()
+    for levels in args.sweep_levels if "sweeps" in args.parts else []:
+        for seed in args.seeds:
+            for rotation in ("fixed", "free"):
+                emit(comm, rows, sweep_rows(levels, seed, rotation, args.repeats, comm))
     save_json(rows, args.output)
 
 

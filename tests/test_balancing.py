@@ -19,6 +19,7 @@ from roughcontact.errors import InputError
 from roughcontact.materials import Interface, Material
 from roughcontact.normal import CGSettings, NormalProblem, make_solver
 from roughcontact.operators.balancing import BALANCING_FROM, BalancingSpace
+from roughcontact.operators.extension import EXTENSION_FROM
 from roughcontact.operators.flexibility import Flexibility
 from roughcontact.surfaces import Topography, fourier_surface
 
@@ -239,12 +240,16 @@ def test_a_solve_with_the_coarse_space_reaches_the_same_state_on_any_rank_count(
     assert balanced.residual <= CGSettings().tol
 
 
-def test_balancing_from_is_checked():
+@pytest.mark.parametrize("name, default, documented", [("balancing_from", BALANCING_FROM, 4096 * 4096),
+                                                       ("extension_from", EXTENSION_FROM, 512 * 512)])
+def test_the_levels_that_take_a_part_of_the_preconditioner_are_checked(name, default, documented):
+    """The coarse space's and the extension's levels (operators/balancing.py, operators/extension.py):
+    None or a count of nodes, each bad value named; the defaults 4096² and 512²."""
     for bad in (0, -1, 2.5, True):
-        with pytest.raises(InputError, match="balancing_from"):
-            CGSettings(balancing_from=bad)
-    assert CGSettings(balancing_from=None).balancing_from is None
-    assert CGSettings().balancing_from == BALANCING_FROM == 4096 * 4096
+        with pytest.raises(InputError, match=name):
+            CGSettings(**{name: bad})
+    assert getattr(CGSettings(**{name: None}), name) is None
+    assert getattr(CGSettings(), name) == default == documented
 
 
 def test_the_space_is_made_once_per_fresh_solve(comm, caplog):

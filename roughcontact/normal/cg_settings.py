@@ -6,7 +6,7 @@ The solver itself is :class:`~.constrained_cg.ConstrainedCGSolver`. The
 constants named below are its own (SINGLE_FLOOR, DEFER_NODES, DEFER_FROM,
 in :mod:`.constrained_cg`), the nested start's (COARSE_TOL, :mod:`.nested`)
 and the preconditioner's (EDGE_UPDATES, HOLE_BLOCK, HOLE_SPAN, DUST,
-BALANCING_PARTS, BALANCING_SHARE, in :mod:`roughcontact.operators`).
+BALANCING_PARTS, BALANCING_SHARE, EXTENSION_BOUNDARY, in :mod:`roughcontact.operators`).
 """
 from __future__ import annotations
 
@@ -17,6 +17,7 @@ import numpy as np
 from ..checks import check_closed_interval
 from ..errors import InputError
 from ..operators.balancing import BALANCING_FROM
+from ..operators.extension import EXTENSION_FROM
 from ..operators.preconditioner import EDGE_SHARE
 
 PRECONDITIONERS = ("fourier", "none")
@@ -214,6 +215,22 @@ class CGSettings:
         the space from 2048² up, 2048² 21 → 20 and no faster); near full
         contact no space is made (docs/solver-cost.md, "A balancing coarse
         space on blocks of the set").
+    extension_from
+        Levels of at least this many nodes precondition a set whose nodes lie
+        mostly on its boundary (EXTENSION_BOUNDARY of them or more with a
+        4-neighbour outside it: a dust of small islands) by the Fourier
+        preconditioner applied to a smooth extension of the set's field,
+        M_T = Eᵀ C⁻¹ E (:mod:`~roughcontact.operators.extension`), instead of
+        the edge correction and the hole charge, wherever the hole charge
+        would be taken: on the constrained CG's set once it changes by one
+        node in EDGE_UPDATES or fewer, and on every set the primal–dual steps
+        hold. Only with the hole charge (``hole_block`` not 0) and the edge
+        correction. None: never. An ensemble task's 12-load sweeps (seed 1,
+        fine iterations, rotation fixed / free): 619 / 755 → 415 / 462 at
+        513², 823 / 961 → 542 / 576 at 1025², in 0.77–0.79 of the time; the
+        large-grid scenes' sets (2 % and 87 % in contact, on a few large
+        islands) do not take it (docs/solver-cost.md, "The preconditioner on
+        the set's smooth extension").
     primal_dual_from
         Levels of at least this many nodes whose start (a coarse grid's, the
         punches' or a neighbour's) holds at least ``primal_dual_share`` of
@@ -327,6 +344,7 @@ class CGSettings:
     defer: float = 1.0
     alternate_return: bool = True
     balancing_from: int | None = BALANCING_FROM
+    extension_from: int | None = EXTENSION_FROM
     primal_dual_from: int | None = PRIMAL_DUAL_FROM
     primal_dual_share: float = PRIMAL_DUAL_SHARE
     rotation_from: int | None = ROTATION_FROM
@@ -353,6 +371,8 @@ class CGSettings:
         _check_optional_count("hole_block", self.hole_block, 0, "the grid's own",
                               "the side of the blocks of the hole charge, 0: none")
         _check_optional_count("balancing_from", self.balancing_from, 1, "no coarse space",
+                              "the nodes from which a level takes it")
+        _check_optional_count("extension_from", self.extension_from, 1, "never",
                               "the nodes from which a level takes it")
         _check_optional_count("primal_dual_from", self.primal_dual_from, 1, "never",
                               "the nodes from which a level takes it")

@@ -21,9 +21,11 @@ preconditioner:
    search direction is the preconditioned gap on F,
    z = M g (M: the Fourier preconditioner of the set with its edge
    correction, :mod:`~roughcontact.operators.preconditioner`, the
-   correction's weights made again whenever F changed; on large grids, once
-   the set has settled, in the balancing form around the blocks of the set,
-   :mod:`~roughcontact.operators.balancing`), with its mean over F
+   correction's weights made again whenever F changed; once the set has
+   settled, on a set of many small islands, the preconditioner applied to
+   the set's smooth extension instead, :mod:`~roughcontact.operators.extension`;
+   on large grids, once the set has settled, in the balancing form around
+   the blocks of the set, :mod:`~roughcontact.operators.balancing`), with its mean over F
    removed so that Σ p stays P, made conjugate to the previous one unless the
    gap is far from orthogonal to the previous z (Powell's test, ``restart``);
 3. the step α = gᵀz / dᵀHd (one FFT product per iteration), then
@@ -93,6 +95,7 @@ from ..errors import ConvergenceError, InputError
 from ..operators import passes
 from ..operators.balancing import BALANCING_SHARE, BalancingSpace
 from ..operators.convolution import dense
+from ..operators.extension import SmoothExtension
 from ..operators.holes import HoleCharge
 from ..operators.preconditioner import EDGE_UPDATES, EdgeWeights
 from .cg_settings import CGSettings
@@ -284,12 +287,16 @@ class ConstrainedCGSolver(NormalSolver):
         pb, settings = self.problem, self.settings
         rigid, w, load = self._imposed(rigid, free, loads)
         edges, holes = self._set_corrections()
+        # on a held set the hole charge is taken from its first step, and so is the extension
+        extension = self._extension() if holes is not None else None
 
         moments = free == [0, 1, 2]                    # the rotation found with the forces
 
         def direction(g, nodes, edge, single):
             # with the moments the steps project the whole rigid fit out, the mean with it
-            return self._direction(g, nodes, single, edge, load is not None and not moments, holes)
+            return self._direction(g, nodes, single, edge, load is not None and not moments, holes,
+                                   extension=extension if extension is not None and extension.chosen(nodes)
+                                   else None)
 
         def weights(nodes, members, single):
             return self._edge_weights(edges, nodes, members, single, self._corrected, holes)
@@ -384,6 +391,9 @@ class ConstrainedCGSolver(NormalSolver):
         # and the edge charge the holes of the free set let the preconditioner take back (None: none)
         edges, holes = self._set_corrections()
         taking = False                                 # whether the hole charge is taken now
+        # M_T on a dust's set where the charge would be taken (None: never in this solve)
+        extension = self._extension() if holes is not None else None
+        extending = False                              # whether this iteration's set takes it
         # the solve's balancing coarse space, made where the hole charge is first taken (None: none)
         coarse_space = self._space if holes is not None else None
         correcting = self._corrected                   # the edge correction in use (dropped where it stalls)
@@ -499,6 +509,17 @@ class ConstrainedCGSolver(NormalSolver):
                     else:
                         coarse_space = self._space = None
             charge = holes if taking else None         # the hole charge of this iteration (None: none)
+            if extension is not None:
+                # decided once as the charge is taken, on that set, and kept while it is (a share
+                # near the bound would otherwise switch M, and restart the directions, as the set
+                # moves); dropped with the edge correction where the set cycles
+                if not (taking and correcting):
+                    now = False
+                else:
+                    now = extending or ("charge on" in restarts and extension.chosen(working))
+                if now != extending:                   # M changes: the directions restart
+                    extending, previous, since_restart = now, None, 0
+                    restarts.append("extension on" if now else "extension off")
             if stale or counts[0] > 0:
                 # the weights of the set as it is now: kept from the last restart while the set
                 # moved, they let the residual wander between 1e-4 and 7e-4 for 30 iterations at
@@ -510,7 +531,7 @@ class ConstrainedCGSolver(NormalSolver):
                 square, size = pb.allsum(np.array([g @ g, g.size]))
                 allowed = settings.defer * float(np.sqrt(square / size)) if size else 0.0
             z, gz = self._direction(g, working, single, edge, load is not None, charge,
-                                    coarse_space if taking else None)
+                                    coarse_space if taking else None, extension if extending else None)
             if not gz > 0.0 and correcting:
                 # the corrected preconditioner is positive definite only as far as C⁻¹'s positive
                 # far entries allow; the plain one always is (never seen to fire in a solve). The
@@ -768,6 +789,15 @@ class ConstrainedCGSolver(NormalSolver):
         flexibility = self.problem.flexibility
         return BalancingSpace(flexibility.preconditioner, flexibility.layout, self.problem.comm)
 
+    def _extension(self) -> SmoothExtension | None:
+        """The smooth extension of a set's field (:mod:`~roughcontact.operators.extension`) for this
+        solve; None below ``CGSettings.extension_from`` nodes or without the edge correction."""
+        start = self.settings.extension_from
+        if start is None or self.problem.size < start or not self._corrected:
+            return None
+        flexibility = self.problem.flexibility
+        return SmoothExtension(flexibility.preconditioner, flexibility.layout, self.problem.comm)
+
     def _edge_weights(self, edges, nodes: np.ndarray, members: np.ndarray, single: bool,
                       correcting: bool, holes: HoleCharge | None) -> np.ndarray | None:
         """The edge correction's weights on the free set, given by ``nodes`` and as the mask
@@ -786,12 +816,16 @@ class ConstrainedCGSolver(NormalSolver):
 
     def _direction(self, g: np.ndarray, nodes: np.ndarray, single: bool, edge: np.ndarray | None,
                    loaded: bool, holes: HoleCharge | None,
-                   coarse: BalancingSpace | None = None) -> tuple[np.ndarray, float]:
+                   coarse: BalancingSpace | None = None,
+                   extension: SmoothExtension | None = None) -> tuple[np.ndarray, float]:
         """(z, gᵀz): the preconditioned gap on the free set ``nodes``, less its mean under load
         control (``loaded``) so that Σ p stays P along it; with the edge weights ``edge``, less
-        ``holes``' charge (None: none); in the balancing form around that preconditioner with the
-        coarse space ``coarse``, made (None: none)."""
+        ``holes``' charge (None: none), or with the set's smooth ``extension`` instead of both
+        (None: none); in the balancing form around that preconditioner with the coarse space
+        ``coarse``, made (None: none)."""
         def precondition(values):
+            if extension is not None:
+                return extension.apply(values, nodes, single)
             z = self._precondition(values, nodes, single, edge)
             if edge is not None and holes is not None:
                 holes.subtract(values, z)

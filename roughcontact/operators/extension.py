@@ -31,8 +31,7 @@ PCG on the task's solved sets (4 / 14 / 40 / 82 % in contact, 513²): 29 /
 with M_T, 7 / 10 / 12 / 11 with C_SS⁻¹. On sets of large islands it does
 not pay: on the large-grid scene (2 % in contact, 26 islands) the solver's
 took 12 iterations and M_T 13, near full contact (87 %, 9 islands) 14 and
-16. The boundary's share of
-the set tells the two apart (the nodes of S with a 4-neighbour outside it:
+16. The boundary's share of the set tells the two apart (the nodes of S with a 4-neighbour outside it:
 0.40–0.91 on the task's sets, 0.27 and 0.08 on the scenes), so the solver
 takes M_T where that share is EXTENSION_BOUNDARY or more (:meth:`chosen`).
 M_T and the edge correction do not combine: M_T less any share of the edge
@@ -55,11 +54,12 @@ from ..surfaces.rows import rows_window
 from . import passes
 
 #: the levels (nodes) from which the solver takes the extension (``CGSettings.extension_from``):
-#: measured on 513² sweeps and 512²–2048² scenes
+#: measured on 513² and 1025² sweeps and on the large-grid scenes at 512²–4096²
 EXTENSION_FROM = 512 * 512
 #: the box filter's side (nodes, odd). Fixed-set PCG on the ensemble task's sets at 4 / 14 / 40 /
 #: 82 % in contact (513²): 3: 20 / 25 / 25 / 16; 5: 17 / 20 / 20 / 14; 7: 16 / 18 / 18 / 14;
-#: 9: 16 / 18 / 17 / 14 (a Gaussian of σ = 2 nodes: 15 / 18 / 18 / 14, two to three times the cost)
+#: 9: 16 / 18 / 17 / 14 (a Gaussian of σ = 2 nodes: 15 / 18 / 18 / 14, at 4.6 against the box's
+#: 1.2 ms at 513²)
 EXTENSION_WIDTH = 7
 #: τ, the floor of the normalisation B(1_S): 0.1 took 20 / 23 / 21 / 14 with a box of 5 nodes, 0.3
 #: 17 / 20 / 20 / 14

@@ -227,7 +227,8 @@ class CGSettings:
         hold. Only with the hole charge (``hole_block`` not 0) and the edge
         correction. None: never. An ensemble task's 12-load sweeps (seed 1,
         fine iterations, rotation fixed / free): 619 / 755 → 415 / 462 at
-        513², 823 / 961 → 542 / 576 at 1025², in 0.77–0.79 of the time; the
+        513², 823 / 961 → 542 / 576 at 1025², in 0.77–0.79 of the time, and
+        1114 / 1276 → 709 / 747 at 2049², in 0.70–0.75 (one run); the
         large-grid scenes' sets (2 % and 87 % in contact, on a few large
         islands) do not take it (docs/solver-cost.md, "The preconditioner on
         the set's smooth extension").

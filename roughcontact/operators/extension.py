@@ -54,7 +54,7 @@ from ..surfaces.rows import rows_window
 from . import passes
 
 #: the levels (nodes) from which the solver takes the extension (``CGSettings.extension_from``):
-#: measured on 513² and 1025² sweeps and on the large-grid scenes at 512²–4096²
+#: measured on 513², 1025² and 2049² sweeps and on the large-grid scenes at 512²–4096²
 EXTENSION_FROM = 512 * 512
 #: the box filter's side (nodes, odd). Fixed-set PCG on the ensemble task's sets at 4 / 14 / 40 /
 #: 82 % in contact (513²): 3: 20 / 25 / 25 / 16; 5: 17 / 20 / 20 / 14; 7: 16 / 18 / 18 / 14;

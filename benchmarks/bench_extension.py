@@ -54,35 +54,21 @@ import numpy as np
 TRUNCATE = 3.0
 
 
-class Extension:
-    """M_T = Eᵀ B E on the set S (this rank's node indices ``contact`` of a whole-grid footprint),
-    T the normalised Gaussian average of width ``sigma`` nodes, its denominator at least ``tau``
-    (module docstring)."""
+def extension(flexibility, filter: str, width: float, tau: float):
+    """The package's M_T (:class:`~roughcontact.operators.extension.SmoothExtension`) with a box of
+    ``width`` nodes a side, or with a Gaussian of σ = ``width`` nodes in its place (``filter``
+    "gauss": the same M_T = Eᵀ A E with another B; one rank), the floor τ = ``tau``."""
+    from scipy.ndimage import gaussian_filter
 
-    def __init__(self, flexibility, shape: tuple[int, int], contact: np.ndarray, filter: str, width: float,
-                 tau: float):
-        from scipy.ndimage import gaussian_filter, uniform_filter
+    from roughcontact.operators.extension import SmoothExtension
 
-        self.flexibility, self.shape, self.contact = flexibility, shape, contact
-        if filter == "gauss":
-            self.smooth = lambda field: gaussian_filter(field, width, mode="constant", truncate=TRUNCATE)
-        else:                                            # a box of width nodes a side, float32
-            self.smooth = lambda field: uniform_filter(field.astype(np.float32), int(width),
-                                                       mode="constant").astype(float)
-        members = np.zeros(shape)
-        members.reshape(-1)[contact] = 1.0
-        # 1 / max(G(1_S), τ) on O, zero on S: T's normalisation, and the mask of O with it
-        self.weight = (1.0 - members) / np.maximum(self.smooth(members), tau)
-        self.every = np.arange(members.size)
+    class Gaussian(SmoothExtension):
+        def _box(self, slab):
+            return gaussian_filter(slab, width, mode="constant", truncate=TRUNCATE)
 
-    def __call__(self, values: np.ndarray) -> np.ndarray:
-        field = np.zeros(self.shape)
-        field.reshape(-1)[self.contact] = values
-        extended = self.smooth(field) * self.weight          # T x on O, zero on S
-        extended.reshape(-1)[self.contact] = values
-        z = self.flexibility.precondition_nodes(extended.reshape(-1), self.every).reshape(self.shape)
-        # R_S B E x + Tᵀ R_O B E x: T's transpose is G of the weighted field, read on S
-        return z.reshape(-1)[self.contact] + self.smooth(z * self.weight).reshape(-1)[self.contact]
+    kind = Gaussian if filter == "gauss" else SmoothExtension
+    return kind(flexibility.preconditioner, flexibility.layout, flexibility.comm,
+                width=1 if filter == "gauss" else int(width), floor=tau)
 
 
 def set_rows(problem, result, base: dict, extensions, exact: bool):
@@ -90,7 +76,6 @@ def set_rows(problem, result, base: dict, extensions, exact: bool):
     from benchmarks.bench_deflation import exact_inverse, lanczos_ritz, pcg, solver_preconditioner
 
     flexibility = problem.flexibility
-    shape = problem.topography.shape
     contact = np.flatnonzero(result.contact[problem.topography.footprint])
 
     def apply(values):
@@ -102,7 +87,8 @@ def set_rows(problem, result, base: dict, extensions, exact: bool):
     ways = {"plain": lambda values: flexibility.precondition_nodes(values, contact),
             "solver": solver_preconditioner(problem, contact, result.contact)}
     for filter, width, tau in extensions:
-        ways[f"extension-{filter}{width:g}-{tau:g}"] = Extension(flexibility, shape, contact, filter, width, tau)
+        made = extension(flexibility, filter, width, tau)
+        ways[f"extension-{filter}{width:g}-{tau:g}"] = lambda values, made=made: made.apply(values, contact)
     if exact:
         ways["exact"] = exact_inverse(flexibility, contact, 1e-10)[0]
     share = contact.size / problem.size
@@ -182,6 +168,8 @@ def main() -> None:
             parser.error(f"--extensions takes filter:width:τ, e.g. gauss:2:0.3, not {spec!r}")
         if filter not in ("gauss", "box") or len(parts) != 3 or not (width > 0.0 and tau > 0.0):
             parser.error(f"--extensions: gauss or box, a positive width and τ, not {spec!r}")
+        if filter == "box" and (width != int(width) or int(width) % 2 == 0):
+            parser.error(f"--extensions: a box's width is an odd number of nodes, not {spec!r}")
         extensions.append((filter, width, tau))
     if any(not 0 <= k < 12 for k in args.loads):
         parser.error("--loads are indices of the task's 12 loads, 0-11")

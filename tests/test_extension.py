@@ -42,10 +42,12 @@ def box_sum(field: np.ndarray, width: int) -> np.ndarray:
     return sliding_window_view(np.pad(field, half), (width, width)).sum(axis=(2, 3)) / width**2
 
 
-def dense_extension(flex, n: int, nodes: np.ndarray, width: int, floor: float) -> tuple[np.ndarray, np.ndarray]:
-    """(Eᵀ A E, A on the grid) as dense matrices: A's columns by the preconditioner applied to
-    unit fields on every node, T by the box mean of each unit field on S, divided by
-    max(box mean of 1_S, τ) on O (the weight rounded to float32, as the package keeps it)."""
+def dense_extension(flex, n: int, nodes: np.ndarray, width: int, floor: float,
+                    footprint: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(Eᵀ A E, A on the grid) as dense matrices: A's columns by the preconditioner of the whole
+    n² grid ``flex`` applied to unit fields on every node, T by the box mean of each unit field on
+    S (``nodes``, grid indices), divided by max(box mean of 1_S, τ) on O (the weight rounded to
+    float32, as the package keeps it) and zero off ``footprint`` (None: the whole grid)."""
     size = n * n
     every = np.arange(size)
     A = np.array([flex.precondition_nodes(e, every) for e in np.eye(size)]).T
@@ -53,6 +55,8 @@ def dense_extension(flex, n: int, nodes: np.ndarray, width: int, floor: float) -
     members.reshape(-1)[nodes] = 1.0
     weight = (1.0 / np.maximum(box_sum(members, width), floor)).astype(np.float32).astype(float)
     weight[members > 0] = 0.0
+    if footprint is not None:
+        weight[~footprint] = 0.0
     E = np.zeros((size, nodes.size))
     E[nodes, np.arange(nodes.size)] = 1.0
     for k, node in enumerate(nodes):
@@ -203,18 +207,8 @@ def test_a_footprint_that_is_not_the_whole_grid():
         got = dense_of(extension, chosen)
         whole = flexibility(n, MPI.COMM_SELF)
         try:
-            _, A = dense_extension(whole, n, grid_nodes[chosen], EXTENSION_WIDTH, EXTENSION_FLOOR)
-            E = np.zeros((n * n, chosen.size))
-            E[grid_nodes[chosen], np.arange(chosen.size)] = 1.0
-            members = np.zeros((n, n))
-            members.reshape(-1)[grid_nodes[chosen]] = 1.0
-            weight = (1.0 / np.maximum(box_sum(members, EXTENSION_WIDTH), EXTENSION_FLOOR)).astype(np.float32)
-            weight = np.where((members > 0) | ~footprint, 0.0, weight.astype(float))
-            for k, node in enumerate(grid_nodes[chosen]):
-                unit = np.zeros((n, n))
-                unit.reshape(-1)[node] = 1.0
-                E[:, k] += (box_sum(unit, EXTENSION_WIDTH) * weight).reshape(-1)
-            expected = E.T @ A @ E
+            expected, _ = dense_extension(whole, n, grid_nodes[chosen], EXTENSION_WIDTH, EXTENSION_FLOOR,
+                                          footprint)
         finally:
             whole.destroy()
         scale = np.abs(expected).max()

@@ -289,16 +289,19 @@ class ConstrainedCGSolver(NormalSolver):
         edges, holes = self._set_corrections()
         # on a held set the hole charge is taken from its first step, and so is the extension
         extension = self._extension() if holes is not None else None
+        held = None                                    # the extension on the set held now (None: none)
 
         moments = free == [0, 1, 2]                    # the rotation found with the forces
 
         def direction(g, nodes, edge, single):
             # with the moments the steps project the whole rigid fit out, the mean with it
             return self._direction(g, nodes, single, edge, load is not None and not moments, holes,
-                                   extension=extension if extension is not None and extension.chosen(nodes)
-                                   else None)
+                                   extension=held)
 
         def weights(nodes, members, single):
+            # called once for each set the steps hold: the extension is chosen there too
+            nonlocal held
+            held = extension if extension is not None and extension.chosen(nodes) else None
             return self._edge_weights(edges, nodes, members, single, self._corrected, holes)
 
         trace = None
@@ -780,11 +783,15 @@ class ConstrainedCGSolver(NormalSolver):
                  if settings.hole_block != 0 else None)
         return edges, holes
 
+    def _taken_from(self, start: int | None) -> bool:
+        """Whether this level takes a part of the preconditioner that levels of ``start`` nodes or
+        more take (None: none), which goes with the edge correction."""
+        return start is not None and self.problem.size >= start and self._corrected
+
     def _coarse_space(self) -> BalancingSpace | None:
         """The balancing coarse space of this level (:mod:`~roughcontact.operators.balancing`), not
         yet made; None below ``CGSettings.balancing_from`` nodes or without the edge correction."""
-        start = self.settings.balancing_from
-        if start is None or self.problem.size < start or not self._corrected:
+        if not self._taken_from(self.settings.balancing_from):
             return None
         flexibility = self.problem.flexibility
         return BalancingSpace(flexibility.preconditioner, flexibility.layout, self.problem.comm)
@@ -792,8 +799,7 @@ class ConstrainedCGSolver(NormalSolver):
     def _extension(self) -> SmoothExtension | None:
         """The smooth extension of a set's field (:mod:`~roughcontact.operators.extension`) for this
         solve; None below ``CGSettings.extension_from`` nodes or without the edge correction."""
-        start = self.settings.extension_from
-        if start is None or self.problem.size < start or not self._corrected:
+        if not self._taken_from(self.settings.extension_from):
             return None
         flexibility = self.problem.flexibility
         return SmoothExtension(flexibility.preconditioner, flexibility.layout, self.problem.comm)

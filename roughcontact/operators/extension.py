@@ -27,7 +27,7 @@ B the box filter of EXTENSION_WIDTH nodes a side over the grid (zero beyond
 it), τ = EXTENSION_FLOOR: next to the set the extension is the local mean of
 its values, and it fades where the box holds little of the set. Fixed-set
 PCG on the task's solved sets (4 / 14 / 40 / 82 % in contact, 513²): 29 /
-35 / 37 / 24 iterations with the solver's preconditioner, 16 / 18 / 18 / 14
+35 / 37 / 24 iterations with the solver's preconditioner, 15 / 18 / 18 / 14
 with M_T, 7 / 10 / 12 / 11 with C_SS⁻¹. On sets of large islands it does
 not pay: on the large-grid scene (2 % in contact, 26 islands) the solver's
 took 12 iterations and M_T 13, near full contact (87 %, 9 islands) 14 and
@@ -50,19 +50,19 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-from ..surfaces.rows import rows_window
+from ..surfaces.rows import padded_rows, rows_window
 from . import passes
 
 #: the levels (nodes) from which the solver takes the extension (``CGSettings.extension_from``):
 #: measured on 513², 1025² and 2049² sweeps and on the large-grid scenes at 512²–4096²
 EXTENSION_FROM = 512 * 512
 #: the box filter's side (nodes, odd). Fixed-set PCG on the ensemble task's sets at 4 / 14 / 40 /
-#: 82 % in contact (513²): 3: 20 / 25 / 25 / 16; 5: 17 / 20 / 20 / 14; 7: 16 / 18 / 18 / 14;
-#: 9: 16 / 18 / 17 / 14 (a Gaussian of σ = 2 nodes: 15 / 18 / 18 / 14, at 4.6 against the box's
-#: 1.2 ms at 513²)
+#: 82 % in contact (513²): 5: 16 / 20 / 20 / 14; 7: 15 / 18 / 18 / 14; 9: 15 / 18 / 18 / 14 (a
+#: Gaussian of σ = 2 nodes: 15 / 18 / 18 / 14, at 4.6 against the box's 1.2 ms at 513²); 3 (a
+#: scratch copy with float32 filters): 20 / 25 / 25 / 16
 EXTENSION_WIDTH = 7
-#: τ, the floor of the normalisation B(1_S): 0.1 took 20 / 23 / 21 / 14 with a box of 5 nodes, 0.3
-#: 17 / 20 / 20 / 14
+#: τ, the floor of the normalisation B(1_S): with a box of 5 nodes, 0.1 took 20 / 23 / 21 / 14 and
+#: 0.3 17 / 20 / 20 / 14 in a scratch copy with float32 filters (the package's: 16 / 20 / 20 / 14)
 EXTENSION_FLOOR = 0.3
 #: the boundary share of the set (its nodes with a 4-neighbour outside it) from which the
 #: extension replaces the edge correction and the hole charge: 0.40–0.91 where it paid, 0.08 and
@@ -138,12 +138,7 @@ class SmoothExtension:
     def _counted_boundary(self, inside: np.ndarray, count: int) -> float:
         """The share of the set's nodes (``inside``: this rank's slab mask; ``count`` of them on this
         rank) with a 4-neighbour outside it, over all ranks (collective)."""
-        r0, r1 = self.layout.rows
-        nx = self.layout.shape[0]
-        window = rows_window(inside, (r0, r1), (max(r0 - 1, 0), min(r1 + 1, nx)), self.comm)
-        padded = np.zeros((r1 - r0 + 2, inside.shape[1] + 2), dtype=bool)
-        top = r0 - max(r0 - 1, 0)                       # 1 where a row above is held, else 0
-        padded[1 - top:1 - top + window.shape[0], 1:-1] = window
+        padded = padded_rows(inside, self.layout.rows, self.layout.shape[0], 1, False, self.comm)
         interior = (padded[:-2, 1:-1] & padded[2:, 1:-1] & padded[1:-1, :-2] & padded[1:-1, 2:])
         boundary = np.count_nonzero(inside & ~interior)
         total, edge = self.comm.allreduce(np.array([count, boundary], dtype=np.int64))

@@ -79,7 +79,7 @@ from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from ..surfaces.rows import rows_window
+from ..surfaces.rows import padded_rows
 
 #: the side of the blocks on which the hole charge is taken back (nodes), on grids of up to
 #: HOLE_SPAN × HOLE_BLOCK nodes a side
@@ -301,11 +301,8 @@ def _near(field: np.ndarray, comm, first_row: int, rows_total: int, beyond: bool
     the grid's edges count as True; collective (the RIM rows beyond the slab's ends come from
     the ranks that hold them, :func:`~roughcontact.surfaces.rows.rows_window`)."""
     rows, ny = field.shape
-    start, stop = (max(first_row - RIM, 0), min(first_row + rows + RIM, rows_total)) if rows \
-        else (first_row, first_row)
-    window = np.full((rows + 2 * RIM, ny + 2 * RIM), beyond)   # rows and columns past the grid keep it
-    window[start - first_row + RIM:stop - first_row + RIM, RIM:RIM + ny] = \
-        rows_window(field, (first_row, first_row + rows), (start, stop), comm)
+    # rows and columns past the grid keep ``beyond``
+    window = padded_rows(field, (first_row, first_row + rows), rows_total, RIM, beyond, comm)
     # the square's maximum as ORs of shifted views, along y and then x: scipy's maximum_filter
     # took 115 ms a call on a 4096² slab, 1.8 s of the large-grid scene's solve
     across = window[:, :ny].copy()

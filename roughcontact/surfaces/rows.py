@@ -229,6 +229,18 @@ def rows_window(held: np.ndarray, rows: tuple[int, int], needed: tuple[int, int]
     return out
 
 
+def padded_rows(held: np.ndarray, rows: tuple[int, int], total: int, reach: int, fill, comm) -> np.ndarray:
+    """This rank's rows ``rows`` of a field split over ``comm`` by rows (``total`` grid rows in all),
+    ``reach`` rows and columns wider on each side: the rows beyond its own from the ranks that hold
+    them (:func:`rows_window`), ``fill`` past the grid's edges; ``held``'s dtype (collective)."""
+    r0, r1 = rows
+    count, width = held.shape
+    start, stop = (max(r0 - reach, 0), min(r1 + reach, total)) if count else (r0, r0)
+    out = np.full((count + 2 * reach, width + 2 * reach), fill, dtype=held.dtype)
+    out[start - r0 + reach:stop - r0 + reach, reach:reach + width] = rows_window(held, rows, (start, stop), comm)
+    return out
+
+
 def gather_into(comm, local: np.ndarray, counts, shape: tuple[int, ...], root: int | None = None):
     """Every rank's ``local`` values (``counts`` of them each, in rank order) received in place into
     one array of ``shape`` on every rank (``root`` None) or on rank ``root`` only (None elsewhere);

@@ -26,7 +26,8 @@ Rows, one per set and preconditioner: fixed-set PCG iterations to 1e-8 (b = H_SS
 positive vector, as benchmarks/bench_deflation.py) and the Ritz range after 40 Lanczos steps,
 for ``plain`` (M, T = 0), ``solver`` (the solver's whole preconditioner on the settled set:
 edge correction and hole charge), ``extension-<filter><width>-<τ>`` (M_T; ``asymmetry``: |aᵀM_T b − bᵀM_T a|
-over |aᵀM_T b| for two random a, b, round-off for Eᵀ B E) and, with ``--exact``, ``exact``
+over |aᵀM_T b| for two random a, b, round-off for Eᵀ B E; ``single_ms``, for it and ``plain``:
+the median milliseconds of an application in single precision, of 9) and, with ``--exact``, ``exact``
 (C_SS⁻¹, the ceiling; B_OO⁻¹ by an inner CG to 1e-10). Sets: the solved contact sets of
 :func:`benchmarks.common.ensemble_task`'s loads (``--loads``, the rotation fixed, each load
 warm-started from the last, ``--levels``, ``--seeds``), and of the large-grid scenes
@@ -63,8 +64,12 @@ def extension(flexibility, filter: str, width: float, tau: float):
     from roughcontact.operators.extension import SmoothExtension
 
     class Gaussian(SmoothExtension):
-        def _box(self, slab):
-            return gaussian_filter(slab, width, mode="constant", truncate=TRUNCATE)
+        def _box(self, slab, out=None, then=None):
+            filtered = gaussian_filter(slab, width, mode="constant", truncate=TRUNCATE, output=out)
+            out = filtered if out is None else out
+            if then is not None:                     # the passes on B's values, on all rows at once
+                then(0, out.shape[0])
+            return out
 
     kind = Gaussian if filter == "gauss" else SmoothExtension
     return kind(flexibility.preconditioner, flexibility.layout, flexibility.comm,
@@ -86,9 +91,13 @@ def set_rows(problem, result, base: dict, extensions, exact: bool):
     rhs = apply(np.abs(np.random.default_rng(0).standard_normal(contact.size)))
     ways = {"plain": lambda values: flexibility.precondition_nodes(values, contact),
             "solver": solver_preconditioner(problem, contact, result.contact)}
+    # the applications timed, in single precision as the solver takes them above SINGLE_FLOOR
+    singles = {"plain": lambda values: flexibility.precondition_nodes(values, contact, True)}
     for filter, width, tau in extensions:
         made = extension(flexibility, filter, width, tau)
-        ways[f"extension-{filter}{width:g}-{tau:g}"] = lambda values, made=made: made.apply(values, contact)
+        name = f"extension-{filter}{width:g}-{tau:g}"
+        ways[name] = lambda values, made=made: made.apply(values, contact)
+        singles[name] = lambda values, made=made: made.apply(values, contact, True)
     if exact:
         ways["exact"] = exact_inverse(flexibility, contact, 1e-10)[0]
     share = contact.size / problem.size
@@ -97,10 +106,26 @@ def set_rows(problem, result, base: dict, extensions, exact: bool):
         ritz = lanczos_ritz(apply, precondition, np.random.default_rng(1).standard_normal(contact.size), 40)
         row = {**base, "share": share, "preconditioner": name, "iterations": pcg(apply, precondition, rhs),
                "ritz_min": float(ritz[0]), "ritz_max": float(ritz[-1])}
+        if name in singles:
+            row["single_ms"] = application_ms(singles[name], a)
         if name.startswith("extension"):             # Eᵀ B E is symmetric: aᵀ M_T b = bᵀ M_T a
             ab, ba = a @ precondition(b), b @ precondition(a)
             row["asymmetry"] = float(abs(ab - ba) / abs(ab))
         yield row
+
+
+def application_ms(precondition, values: np.ndarray, repeats: int = 9) -> float:
+    """The median milliseconds of one application of ``precondition`` to ``values``, after one
+    untimed (which makes what it keeps for the set)."""
+    import time
+
+    precondition(values)
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        precondition(values)
+        times.append(time.perf_counter() - start)
+    return 1e3 * float(np.median(times))
 
 
 def sweep_rows(levels: int, seed: int, rotation: str, repeats: int, comm):

@@ -18,6 +18,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from roughcontact.materials import Interface, Material
 from roughcontact.normal import CGSettings, NormalProblem, constrained_cg, make_solver
+from roughcontact.operators import extension as extension_module
 from roughcontact.operators.extension import (
     EXTENSION_BOUNDARY,
     EXTENSION_FLOOR,
@@ -70,19 +71,30 @@ def dense_of(extension, nodes, single=False):
     return np.array([extension.apply(e, nodes, single) for e in np.eye(nodes.size)]).T
 
 
-def test_the_product_is_its_definition_and_symmetric():
+@pytest.mark.parametrize("kind, block_bytes, workers", [
+    ("fft", extension_module.BLOCK_BYTES, 1),           # the box in one block of rows
+    ("fft", 8 * 20 * 3, 1),                             # in blocks of 3 rows, which end inside the halo
+    ("fft", 1, 1),                                      # in blocks of one row
+    ("fft", 8 * 20 * 3, 2),                             # two threads, each its rows' blocks and passes
+    ("fft-periodic", extension_module.BLOCK_BYTES, 1),  # the product's rows as wide as the grid's
+])
+def test_the_product_is_its_definition_and_symmetric(monkeypatch, kind, block_bytes, workers):
     """M_T on a random set of a quarter of a 20² grid, as a dense matrix from the package, against
     Eᵀ A E built from the definition (:func:`dense_extension`), in double precision: to 1e-7 of
     the largest entry, as the package makes its float32 weights from a float32 box sum of 1_S
     where the reference rounds a float64 one (each weight within a few float32 ulps, 3e-7 of
     itself, on the part of M_T that T carries; 1-5e-9 of the largest entry seen); symmetric to
-    1e-12 of it, as Eᵀ A E is (T and Tᵀ take the same weights)."""
+    1e-12 of it, as Eᵀ A E is (T and Tᵀ take the same weights). The box filter made in blocks of
+    a few rows, on two threads (the grid is too small for the transforms' own), and A the periodic
+    operator's (whose product is read at S without a crop), give the same."""
+    monkeypatch.setattr(extension_module, "BLOCK_BYTES", block_bytes)
     n = 20
-    flex = flexibility(n, MPI.COMM_SELF)
+    flex = Flexibility(Topography(np.zeros((n, n)), SPACING), ROCK, MPI.COMM_SELF, kind=kind)
     try:
         nodes = np.flatnonzero(np.random.default_rng(3).random(n * n) < 0.25)
-        extension = SmoothExtension(flex.preconditioner, flex.layout, MPI.COMM_SELF)
-        got = dense_of(extension, nodes)
+        made = SmoothExtension(flex.preconditioner, flex.layout, MPI.COMM_SELF)
+        made.workers = workers
+        got = dense_of(made, nodes)
         expected, _ = dense_extension(flex, n, nodes, EXTENSION_WIDTH, EXTENSION_FLOOR)
         scale = np.abs(expected).max()
         np.testing.assert_allclose(got, expected, rtol=0, atol=1e-7 * scale)
@@ -112,6 +124,26 @@ def test_it_is_at_least_the_schur_complement_on_the_set(density):
         scale = np.abs(plain).max()
         assert np.linalg.eigvalsh(0.5 * (got + got.T) - schur)[0] >= -1e-10 * scale
         assert np.abs(got - plain).max() > 1e-3 * scale          # and it is not M
+    finally:
+        flex.destroy()
+
+
+def test_what_one_application_keeps_does_not_reach_the_next(comm):
+    """One object applied in turn to two sets, in double and single precision and back (its kept
+    scratch: g's field, zero off the set it was last filled for; reallocated when the precision
+    changes), gives each time the same bits as a new object applied once, on any rank count."""
+    n = 40
+    rng = np.random.default_rng(21)
+    flex = flexibility(n, comm)
+    try:
+        r0, r1 = flex.layout.rows
+        sets = [np.flatnonzero(rng.random((r1 - r0) * n) < share) for share in (0.2, 0.6)]
+        kept = SmoothExtension(flex.preconditioner, flex.layout, comm)
+        for nodes, single in [(sets[0], False), (sets[0], False), (sets[1], False), (sets[1], True),
+                              (sets[0], True), (sets[0], False)]:
+            g = rng.standard_normal(nodes.size)
+            fresh = SmoothExtension(flex.preconditioner, flex.layout, comm).apply(g, nodes, single)
+            np.testing.assert_array_equal(kept.apply(g, nodes, single), fresh)
     finally:
         flex.destroy()
 
@@ -258,7 +290,8 @@ def test_a_solve_with_the_extension_reaches_the_same_state_on_any_rank_count(com
     """On the dust the extension is taken (from the first grid up: ``extension_from`` 1) where the
     hole charge would be: the constrained CG's trace shows it switched on, and its directions go
     through it; the primal–dual steps (from any start) take it on their held sets, and settle the
-    fine level's set themselves. The state is the one without
+    fine level's set themselves. Edge weights made for a set are not followed by M_T on that set
+    (M_T replaces them). The state is the one without
     it to 1e-6 of the largest force (the CG's tolerance of 1e-8 times the condition of H on the
     set, test_normal_cg.py), on any rank count, and the two paths differ."""
     problem, load = dust_problem(comm)
@@ -271,11 +304,24 @@ def test_a_solve_with_the_extension_reaches_the_same_state_on_any_rank_count(com
 
         without = solve(extension_from=None)
         applied, settled, inside = [], [], [False]
+        events = []                                     # (what, the set) in the order they came
         original, settle = SmoothExtension.apply, constrained_cg.settle
+        made = constrained_cg.ConstrainedCGSolver._edge_weights
+        plain = constrained_cg.ConstrainedCGSolver._precondition
 
         def counted(self, *args):
             applied.append(inside[0])                   # whether within the primal-dual steps
+            events.append(("extension", hash(args[1].tobytes())))
             return original(self, *args)
+
+        def weighted(self, edges, nodes, members, single, correcting, holes):
+            if correcting:
+                events.append(("weights", hash(nodes.tobytes())))
+            return made(self, edges, nodes, members, single, correcting, holes)
+
+        def preconditioned(self, g, nodes, single, edge):
+            events.append(("corrected" if edge is not None else "plain", hash(nodes.tobytes())))
+            return plain(self, g, nodes, single, edge)
 
         def watched(*args, **kwargs):
             inside[0] = True
@@ -288,6 +334,8 @@ def test_a_solve_with_the_extension_reaches_the_same_state_on_any_rank_count(com
 
         monkeypatch.setattr(SmoothExtension, "apply", counted)
         monkeypatch.setattr(constrained_cg, "settle", watched)
+        monkeypatch.setattr(constrained_cg.ConstrainedCGSolver, "_edge_weights", weighted)
+        monkeypatch.setattr(constrained_cg.ConstrainedCGSolver, "_precondition", preconditioned)
         with caplog.at_level(logging.DEBUG, logger="roughcontact.normal.constrained_cg"):
             extended = solve(extension_from=1)
     finally:
@@ -300,6 +348,13 @@ def test_a_solve_with_the_extension_reaches_the_same_state_on_any_rank_count(com
         assert any(applied) and settled and settled[-1]
     assert 0.03 < without.contact_fraction < 0.3
     assert extended.linear_iterations != without.linear_iterations
+    # M_T replaces the edge correction and the hole charge: weights made for a set are next used
+    # by the corrected preconditioner, never by M_T on that set (the code before made them first)
+    assert any(what == "extension" for what, _ in events)
+    for k, (what, nodes) in enumerate(events):
+        if what == "weights":
+            following = next((event for event in events[k + 1:] if event[0] != "weights"), None)
+            assert following != ("extension", nodes)
     scale = without.force.max()
     np.testing.assert_allclose(extended.force, without.force, rtol=0, atol=1e-6 * scale)
     assert extended.residual <= CGSettings().tol

@@ -23,7 +23,9 @@ a set solved to the tolerance). The preconditioner is the constrained CG's
 own (the Fourier preconditioner of the set, its edge correction and the hole
 charge), its edge weights made for each set and the charge taken from the
 first step on it, where the constrained CG takes the hole charge only once
-its set has nearly stopped moving.
+its set has nearly stopped moving; or, on a set that takes it, the smooth
+extension (:mod:`~roughcontact.operators.extension`), for which neither is
+made.
 
 It pays where the set is large (docs/solver-cost.md, "The contact set
 settled by a primal–dual active set"): near full contact, one rank, the two

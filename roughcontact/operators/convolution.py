@@ -342,6 +342,17 @@ class SlabConvolution:
         node in DENSE_WRITE is scattered into a flat slab and copied in."""
         return self._filtered(self._transform_at(values, positions, single), single)
 
+    def apply_written(self, write, single: bool = False) -> np.ndarray:
+        """k ⊛ x for the x that ``write(block)`` writes into ``block``, this rank's (rows, ny) part
+        of the padded rows buffer, every value of it (it holds the last product's): :meth:`apply`
+        without the field's copy into the buffer, the caller's last pass writing there instead.
+        The product uncropped, the whole width Ly of this rank's rows (a contiguous array; the
+        grid's columns are its first ny)."""
+        block = self._padded(single)[0][:, :self.shape[1]]
+        self._written[single] = None                # the whole block: zeroed whole next (even if write fails)
+        write(block)
+        return self._filtered(self._transform(single), single, crop=False)
+
     def held(self, field: np.ndarray, single: bool = False) -> HeldProduct:
         """:meth:`apply` stopped before its inverse transforms, with xᵀ(k ⊛ x) read off the
         spectrum (:class:`HeldProduct`)."""

@@ -38,12 +38,14 @@ M_T and the edge correction do not combine: M_T less any share of the edge
 weights was indefinite on the task's sets.
 
 One application costs the same periodic product as M (of a field on every
-node of the rank instead of S's) and two box filters (along y scipy.ndimage's
-running sums, along x sums of whole rows; their output in the product's
-precision), with a halo of EXTENSION_WIDTH // 2 rows from the neighbouring
-ranks each: 7.0 against M's 3.7 ms at 513² (a set of 40 %, single
-precision, medians of 9), 114 against 41 ms at 2049² (72 %). The weights
-are made once per set, and only for a set that takes the extension.
+node of the rank instead of S's) and two box filters (:meth:`_box`; their
+output in the product's precision), with a halo of EXTENSION_WIDTH // 2
+rows from the neighbouring ranks each: 4.4 against M's 4.1 ms at 513² (the
+task's set of 40 %, single precision, medians of 9), 85.7 against 54.0 ms
+at 2049² (72 %; docs/solver-cost.md, "M_T's passes, and the corrections it
+replaces"). The weights are made once per set, and only for a set that
+takes the extension; the solver makes neither the edge weights nor the
+hole charge for such a set.
 """
 from __future__ import annotations
 
@@ -68,6 +70,9 @@ EXTENSION_FLOOR = 0.3
 #: extension replaces the edge correction and the hole charge: 0.40–0.91 where it paid, 0.08 and
 #: 0.27 where it did not (module docstring)
 EXTENSION_BOUNDARY = 1.0 / 3.0
+#: the bytes of output rows the box filter makes at a time, each block's passes in cache
+#: (:meth:`SmoothExtension._box`): 127 rows of 2049 in float32
+BLOCK_BYTES = 1 << 20
 
 
 class SmoothExtension:
@@ -87,9 +92,11 @@ class SmoothExtension:
         self.workers = self.convolution.workers
         self._nodes: np.ndarray | None = None           # the set the two below belong to
         self._share: float | None = None                # its boundary share (None: not yet counted)
-        # the weight 1/max(B(1_S), τ) off S, and the nodes' slab positions, rows and columns (None:
-        # not yet made; only a set that takes the extension needs them)
+        # the weight 1/max(B(1_S), τ) off S, and the nodes' positions in the slab and in the
+        # product's rows (None: not yet made; only a set that takes the extension needs them)
         self._made: tuple | None = None
+        self._buffers: tuple | None = None              # :meth:`_scratch`'s three slabs
+        self._zeroed: np.ndarray | None = None          # the positions g's field is zero off
 
     # ------------------------------------------------------------------ the set
     def chosen(self, nodes: np.ndarray) -> bool:
@@ -114,17 +121,22 @@ class SmoothExtension:
         changed: the kept values are reductions; collective)."""
         kept = self._nodes is not None and np.array_equal(self._nodes, nodes)
         if self.comm.allreduce(int(not kept)):
-            self._nodes, self._share, self._made = nodes.copy(), None, None
+            # g's field too: its zeros were for the set forgotten (the new set's positions may be
+            # the same array object, refilled)
+            self._nodes, self._share, self._made, self._zeroed = nodes.copy(), None, None, None
 
     def _weights(self, nodes: np.ndarray) -> tuple:
         """(the weight 1 / max(B(1_S), τ) on the footprint off S, 0 on S and off the footprint, as
-        this rank's slab in float32; the set's flat slab positions, and its rows in the slab and
-        columns), kept while the set stays the same (collective)."""
+        this rank's slab in float32; the set's flat slab positions, its flat positions in the
+        product's uncropped rows of Ly columns, and where each slab row's nodes start among them),
+        kept while the set stays the same (collective)."""
         self._keep(nodes)
         if self._made is None:
             layout = self.layout
             positions = layout.slab_positions(nodes)
-            rows, columns = np.divmod(positions, layout.shape[1])
+            ny, ly = layout.shape[1], self.convolution.lengths[1]
+            period = positions if ly == ny else positions // ny * (ly - ny) + positions
+            starts = np.searchsorted(positions, np.arange(layout.local_mask.shape[0] + 1) * ny)
             member = np.zeros(layout.local_mask.shape, dtype=np.float32)
             member.reshape(-1)[positions] = 1.0
             weight = self._box(member)
@@ -132,7 +144,7 @@ class SmoothExtension:
             np.reciprocal(weight, out=weight)
             weight[member > 0.0] = 0.0
             weight[~layout.local_mask] = 0.0
-            self._made = (weight, positions, rows, columns)
+            self._made = (weight, positions, period, starts)
         return self._made
 
     def _counted_boundary(self, inside: np.ndarray, count: int) -> float:
@@ -144,59 +156,98 @@ class SmoothExtension:
         total, edge = self.comm.allreduce(np.array([count, boundary], dtype=np.int64))
         return float(edge) / float(total) if total else 0.0
 
-    def _box(self, slab: np.ndarray) -> np.ndarray:
+    def _box(self, slab: np.ndarray, out: np.ndarray | None = None, then=None) -> np.ndarray:
         """B(slab): the box filter of ``width`` nodes a side over the grid, zero beyond it, on this
-        rank's rows, in ``slab``'s precision, a new array (the rows within width // 2 of its own
-        come from its neighbours; collective). On the FFT's threads by blocks of rows: along y by
-        scipy's running sums (which release the GIL), along x as the sum of the ``width`` rows
-        about each row, contiguous adds that took 9.3 ms at 2049² (float32, two threads) where
-        scipy's filter along x, which reads the columns strided, took 29.6 ms."""
+        rank's rows, in ``slab``'s precision, into ``out`` (a new array if None; not ``slab``).
+        The rows within width // 2 of the rank's own come from its neighbours (collective).
+        ``then(start, stop)`` is called on each block of output rows as soon as it is made,
+        while it is still in cache (the passes :meth:`apply` makes on B's values).
+
+        On the FFT's threads, by blocks of about BLOCK_BYTES of output rows: along y by scipy's
+        running sums (which release the GIL) into a scratch block of the block's rows and
+        width − 1 more, then across as the sum of the ``width`` scratch rows about each row,
+        contiguous adds in cache (scipy's filter along x, which reads the columns strided, took
+        29.6 against 9.3 ms for whole-slab adds at 2049²). In blocks, against the same passes
+        over whole slabs (one process, alternated, medians of 15; the same bits): 9.8–10.8
+        against 15.6–17.3 ms at 2049², 1.1 against 1.2 ms at 513² (float32, two threads)."""
         half = self.width // 2
         r0, r1 = self.layout.rows
         nx = self.layout.shape[0]
         lo, hi = max(r0 - half, 0), min(r1 + half, nx)
         # rows_window is collective: every rank of a communicator of more than one takes part
         window = slab if self.comm.Get_size() == 1 else rows_window(slab, (r0, r1), (lo, hi), self.comm)
-        along = np.empty_like(window)
-        out = np.empty((r1 - r0, window.shape[1]), dtype=window.dtype)
+        count, ny = window.shape
+        first = r0 - lo                             # the window's row of the rank's first row
+        if out is None:
+            out = np.empty((r1 - r0, ny), dtype=window.dtype)
         width, scale = self.width, window.dtype.type(1.0 / self.width)
-        count = window.shape[0]
+        block_rows = max(1, BLOCK_BYTES // max(1, ny * window.itemsize))
 
         def rows(a, b):
-            uniform_filter1d(window[a:b], width, axis=1, mode="constant", output=along[a:b])
+            along = np.empty((min(block_rows, b - a) + 2 * half, ny), dtype=window.dtype)
+            for start in range(a, b, block_rows):
+                stop = min(start + block_rows, b)
+                # the window rows the block's rows sum: those within half of them
+                w0, w1 = max(start + first - half, 0), min(stop + first + half, count)
+                summed = along[:w1 - w0]
+                uniform_filter1d(window[w0:w1], width, axis=1, mode="constant", output=summed)
+                block = out[start:stop]
+                block.fill(0.0)
+                for shift in range(-half, half + 1):
+                    i0, i1 = max(start, w0 - first - shift), min(stop, w1 - first - shift)
+                    if i1 > i0:
+                        block[i0 - start:i1 - start] += summed[i0 + first + shift - w0:i1 + first + shift - w0]
+                block *= scale
+                if then is not None:
+                    then(start, stop)
 
-        def across(a, b):
-            # out rows a:b are window rows a + first … b + first; each sums window rows within half
-            first = r0 - lo
-            block = out[a:b]
-            block.fill(0.0)
-            for shift in range(-half, half + 1):
-                start, stop = a + first + shift, b + first + shift
-                skip, keep = max(0, -start), (b - a) - max(0, stop - count)
-                if keep > skip:
-                    block[skip:keep] += along[start + skip:start + keep]
-            block *= scale
-
-        passes.by_rows(self.workers, count, rows)
-        passes.by_rows(self.workers, r1 - r0, across)
+        passes.by_rows(self.workers, r1 - r0, rows)
         return out
 
     # ---------------------------------------------------------------- the product
     def apply(self, values: np.ndarray, nodes: np.ndarray, single: bool = False) -> np.ndarray:
-        """M_T g on the free set given by this rank's node indices ``nodes``, ``values`` = g there
+        """M_T g on the free set given by this rank's ascending node indices ``nodes``, ``values`` = g there
         (float64 out; the filters and the periodic product in single precision with ``single``;
-        T and Tᵀ take the same float32 weights, so M_T is symmetric in either); collective."""
-        weight, positions, rows, columns = self._weights(nodes)
+        T and Tᵀ take the same float32 weights, so M_T is symmetric in either); collective.
+
+        E g is written by the first box's last passes straight into the product's padded rows
+        (:meth:`~.convolution.SlabConvolution.apply_written`), A E g is read at S from the
+        uncropped product by flat positions, Tᵀ's values at S are gathered block by block as
+        the second box makes them, and three slabs of scratch are kept for the solve: at 2049²
+        (a set of 72 %, single precision) 74.4 against 94.9 ms an application where each slab
+        was new, E g copied into the buffer and A E g read at S by rows and columns of its
+        cropped view (alternated in one process, medians of 15; the same bits)."""
+        weight, positions, period, starts = self._weights(nodes)
         dtype = np.float32 if single else np.float64
         workers = self.workers
-        field = np.zeros(self.layout.local_mask.shape, dtype=dtype)
+        field, back, filtered = self._scratch(dtype)
+        if self._zeroed is not positions:           # g's field keeps its zeros while S stays
+            passes.fill(field, 0.0, workers)
+            self._zeroed = positions
         passes.scatter(field.reshape(-1), positions, values, workers)
-        extended = self._box(field)
-        passes.combine(np.multiply, extended, weight, extended, workers)   # T g off S, 0 on S
-        passes.scatter(extended.reshape(-1), positions, values, workers)   # E g
-        # A E g on this rank's rows: a strided view of the period, read at S by rows and columns
-        z = self.convolution.apply(extended, single)
-        back = passes.combine(np.multiply, z, weight, np.empty(z.shape, dtype=dtype), workers)
-        out = z[rows, columns].astype(float)
-        out += passes.gather(self._box(back).reshape(-1), positions, workers)
+
+        def extend(block):
+            def then(a, b):                         # T g off S (the weight is 0 on S), g on S: E g
+                block[a:b] *= weight[a:b]
+                block[a:b] += field[a:b]
+            self._box(field, out=block, then=then)
+
+        whole = self.convolution.apply_written(extend, single)      # A E g, rows of Ly columns
+        out = passes.gather(whole.reshape(-1), period, workers).astype(float)
+        passes.combine(np.multiply, whole[:, :self.layout.shape[1]], weight, back, workers)
+        flat = filtered.reshape(-1)
+
+        def gathered(a, b):                         # + Tᵀ R_O A E g on S's nodes of rows a … b
+            i0, i1 = starts[a], starts[b]
+            out[i0:i1] += flat[positions[i0:i1]]
+
+        self._box(back, out=filtered, then=gathered)
         return out
+
+    def _scratch(self, dtype) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Three slabs of the rank's rows in ``dtype``, kept while this object lives (a solve): g's
+        field (zero off the set it was last filled for), w ∘ A E g, and its box filter."""
+        if self._buffers is None or self._buffers[0].dtype != dtype:
+            self._buffers = tuple(np.empty(self.layout.local_mask.shape, dtype=dtype) for _ in range(3))
+            self._zeroed = None
+        return self._buffers

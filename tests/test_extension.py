@@ -131,16 +131,21 @@ def test_it_is_at_least_the_schur_complement_on_the_set(density):
 def test_what_one_application_keeps_does_not_reach_the_next(comm):
     """One object applied in turn to two sets, in double and single precision and back (its kept
     scratch: g's field, zero off the set it was last filled for; reallocated when the precision
-    changes), gives each time the same bits as a new object applied once, on any rank count."""
+    changes), and to a third set written into the second's index array in place, gives each time
+    the same bits as a new object applied once, on any rank count."""
     n = 40
     rng = np.random.default_rng(21)
     flex = flexibility(n, comm)
     try:
         r0, r1 = flex.layout.rows
         sets = [np.flatnonzero(rng.random((r1 - r0) * n) < share) for share in (0.2, 0.6)]
+        refilled = sets[1].copy()
         kept = SmoothExtension(flex.preconditioner, flex.layout, comm)
-        for nodes, single in [(sets[0], False), (sets[0], False), (sets[1], False), (sets[1], True),
-                              (sets[0], True), (sets[0], False)]:
+        for nodes, single in [(sets[0], False), (sets[0], False), (refilled, False), (refilled, True),
+                              (sets[0], True), (sets[0], False), (refilled, False), ("in place", False)]:
+            if isinstance(nodes, str):              # another set of the same size, in the same array
+                refilled[:] = np.sort(rng.choice((r1 - r0) * n, refilled.size, replace=False))
+                nodes = refilled
             g = rng.standard_normal(nodes.size)
             fresh = SmoothExtension(flex.preconditioner, flex.layout, comm).apply(g, nodes, single)
             np.testing.assert_array_equal(kept.apply(g, nodes, single), fresh)

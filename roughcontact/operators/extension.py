@@ -206,9 +206,10 @@ class SmoothExtension:
 
     # ---------------------------------------------------------------- the product
     def apply(self, values: np.ndarray, nodes: np.ndarray, single: bool = False) -> np.ndarray:
-        """M_T g on the free set given by this rank's ascending node indices ``nodes``, ``values`` = g there
-        (float64 out; the filters and the periodic product in single precision with ``single``;
-        T and Tᵀ take the same float32 weights, so M_T is symmetric in either); collective.
+        """M_T g on the free set given by this rank's ascending node indices ``nodes``, ``values``
+        = g there (float64 out; the filters and the periodic product in single precision with
+        ``single``; T and Tᵀ take the same float32 weights, so M_T is symmetric in either);
+        collective.
 
         E g is written by the first box's last passes straight into the product's padded rows
         (:meth:`~.convolution.SlabConvolution.apply_written`), A E g is read at S from the
@@ -233,7 +234,7 @@ class SmoothExtension:
             self._box(field, out=block, then=then)
 
         whole = self.convolution.apply_written(extend, single)      # A E g, rows of Ly columns
-        out = passes.gather(whole.reshape(-1), period, workers).astype(float)
+        out = passes.gather(whole.reshape(-1), period, workers).astype(float, copy=False)
         passes.combine(np.multiply, whole[:, :self.layout.shape[1]], weight, back, workers)
         flat = filtered.reshape(-1)
 

@@ -226,12 +226,15 @@ class CGSettings:
         node in EDGE_UPDATES or fewer, and on every set the primal–dual steps
         hold. Only with the hole charge (``hole_block`` not 0) and the edge
         correction. None: never. An ensemble task's 12-load sweeps (seed 1,
-        fine iterations, rotation fixed / free): 619 / 755 → 415 / 462 at
-        513², 823 / 961 → 542 / 576 at 1025², in 0.77–0.79 of the time, and
-        1114 / 1276 → 709 / 747 at 2049², in 0.70–0.75 (one run); the
-        large-grid scenes' sets (2 % and 87 % in contact, on a few large
-        islands) do not take it (docs/solver-cost.md, "The preconditioner on
-        the set's smooth extension").
+        fine iterations, rotation fixed / free): 203 / 298 → 163 / 227 at
+        65², 282 / 403 → 217 / 282 at 129², 388 / 550 → 290 / 354 at 257²,
+        in 0.67–0.84 of the time; 619 / 755 → 415 / 462 at 513², 823 / 961
+        → 542 / 576 at 1025², in 0.73–0.83, and 1114 / 1276 → 709 / 747 at
+        2049², in 0.70–0.75 (one run). The default study's 24 tasks (65²)
+        in 0.71–0.75 of the time. The large-grid scenes' sets (2 % and 87 %
+        in contact, on a few large islands) keep their counts, 64² to 4096²
+        (docs/solver-cost.md, "The preconditioner on the set's smooth
+        extension" and "The extension from 64²").
     primal_dual_from
         Levels of at least this many nodes whose start (a coarse grid's, the
         punches' or a neighbour's) holds at least ``primal_dual_share`` of

@@ -228,7 +228,7 @@ class CGSettings:
         correction. None: never. An ensemble task's 12-load sweeps (seed 1,
         fine iterations, rotation fixed / free): 203 / 298 → 163 / 227 at
         65², 282 / 403 → 217 / 282 at 129², 388 / 550 → 290 / 354 at 257²,
-        in 0.67–0.84 of the time; 619 / 755 → 415 / 462 at 513², 823 / 961
+        in 0.67–0.90 of the time; 619 / 755 → 415 / 462 at 513², 823 / 961
         → 542 / 576 at 1025², in 0.73–0.83, and 1114 / 1276 → 709 / 747 at
         2049², in 0.70–0.75 (one run). The default study's 24 tasks (65²)
         in 0.71–0.75 of the time. The large-grid scenes' sets (2 % and 87 %

@@ -52,7 +52,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-from ..surfaces.rows import padded_rows, rows_window
+from ..surfaces.rows import padded_rows, reached_rows, rows_window
 from . import passes
 
 #: the levels (nodes) from which the solver takes the extension (``CGSettings.extension_from``):
@@ -173,8 +173,7 @@ class SmoothExtension:
         against 15.6–17.3 ms at 2049², 1.1 against 1.2 ms at 513² (float32, two threads)."""
         half = self.width // 2
         r0, r1 = self.layout.rows
-        nx = self.layout.shape[0]
-        lo, hi = max(r0 - half, 0), min(r1 + half, nx)
+        lo, hi = reached_rows((r0, r1), self.layout.shape[0], half)
         # rows_window is collective: every rank of a communicator of more than one takes part
         window = slab if self.comm.Get_size() == 1 else rows_window(slab, (r0, r1), (lo, hi), self.comm)
         count, ny = window.shape

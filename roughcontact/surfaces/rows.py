@@ -229,13 +229,20 @@ def rows_window(held: np.ndarray, rows: tuple[int, int], needed: tuple[int, int]
     return out
 
 
+def reached_rows(rows: tuple[int, int], total: int, reach: int) -> tuple[int, int]:
+    """The grid rows (start, stop) within ``reach`` of a rank's rows ``rows`` (``total`` in all),
+    clipped to the grid; none for a rank without rows."""
+    r0, r1 = rows
+    return (max(r0 - reach, 0), min(r1 + reach, total)) if r1 > r0 else (r0, r0)
+
+
 def padded_rows(held: np.ndarray, rows: tuple[int, int], total: int, reach: int, fill, comm) -> np.ndarray:
     """This rank's rows ``rows`` of a field split over ``comm`` by rows (``total`` grid rows in all),
     ``reach`` rows and columns wider on each side: the rows beyond its own from the ranks that hold
     them (:func:`rows_window`), ``fill`` past the grid's edges; ``held``'s dtype (collective)."""
-    r0, r1 = rows
+    r0 = rows[0]
     count, width = held.shape
-    start, stop = (max(r0 - reach, 0), min(r1 + reach, total)) if count else (r0, r0)
+    start, stop = reached_rows(rows, total, reach)
     out = np.full((count + 2 * reach, width + 2 * reach), fill, dtype=held.dtype)
     out[start - r0 + reach:stop - r0 + reach, reach:reach + width] = rows_window(held, rows, (start, stop), comm)
     return out

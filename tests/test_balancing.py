@@ -241,10 +241,10 @@ def test_a_solve_with_the_coarse_space_reaches_the_same_state_on_any_rank_count(
 
 
 @pytest.mark.parametrize("name, default, documented", [("balancing_from", BALANCING_FROM, 4096 * 4096),
-                                                       ("extension_from", EXTENSION_FROM, 64 * 64)])
+                                                       ("extension_from", EXTENSION_FROM, 16 * 16)])
 def test_the_levels_that_take_a_part_of_the_preconditioner_are_checked(name, default, documented):
     """The coarse space's and the extension's levels (operators/balancing.py, operators/extension.py):
-    None or a count of nodes, each bad value named; the defaults 4096² and 64²."""
+    None or a count of nodes, each bad value named; the defaults 4096² and 16²."""
     for bad in (0, -1, 2.5, True):
         with pytest.raises(InputError, match=name):
             CGSettings(**{name: bad})

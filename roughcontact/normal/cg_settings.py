@@ -231,10 +231,11 @@ class CGSettings:
         in 0.67–0.90 of the time; 619 / 755 → 415 / 462 at 513², 823 / 961
         → 542 / 576 at 1025², in 0.73–0.83, and 1114 / 1276 → 709 / 747 at
         2049², in 0.70–0.75 (one run). The default study's 24 tasks (65²)
-        in 0.71–0.75 of the time. The large-grid scenes' sets (2 % and 87 %
-        in contact, on a few large islands) keep their counts, 64² to 4096²
-        (docs/solver-cost.md, "The preconditioner on the set's smooth
-        extension" and "The extension from 64²").
+        in 0.71–0.75 of the time; 12-load tasks at 17²–48² (below 64², the
+        fine level alone) in 0.64–0.86. The large-grid scenes' sets (2 % and
+        87 % in contact, on a few large islands) keep their counts, 64² to
+        4096² (docs/solver-cost.md, "The preconditioner on the set's smooth
+        extension", "The extension from 64²" and "… from 16²").
     primal_dual_from
         Levels of at least this many nodes whose start (a coarse grid's, the
         punches' or a neighbour's) holds at least ``primal_dual_share`` of

@@ -56,9 +56,10 @@ from ..surfaces.rows import padded_rows, reached_rows, rows_window
 from . import passes
 
 #: the levels (nodes) from which the solver takes the extension (``CGSettings.extension_from``):
-#: measured on the ensemble task's sweeps at 65²–2049², the default study's 24 tasks at 65², and
-#: the large-grid scenes at 64²–4096²; above the active set's and the dense matrix's 33² (auto)
-EXTENSION_FROM = 64 * 64
+#: measured on the ensemble task's sweeps at 17²–2049², 12-load tasks at 40² and 48², the default
+#: study's 24 tasks at 65², and the large-grid scenes at 64²–4096² (docs/solver-cost.md, "The
+#: extension from 64²" and "… from 16²"); the nested start's levels stop at 64² (COARSEST)
+EXTENSION_FROM = 16 * 16
 #: the box filter's side (nodes, odd). Fixed-set PCG on the ensemble task's sets at 4 / 14 / 40 /
 #: 82 % in contact (513²): 5: 16 / 20 / 20 / 14; 7: 15 / 18 / 18 / 14; 9: 15 / 18 / 18 / 14 (a
 #: Gaussian of σ = 2 nodes: 15 / 18 / 18 / 14, at 4.6 against the box's 1.2 ms at 513²); 3 (a

@@ -165,13 +165,26 @@ def ensemble_task(levels: int, seed: int = 1):
     midpoint surface of 2^levels + 1 nodes a side (Δ = 2.3, rms height 10 µm, spacing 100 µm)
     between two rock half-spaces (E = 20 GPa, ν = 0.2), and 12 loads from 0.005 % to 0.5 % of
     E* A0 (the default study's range of contact), solved one after the other, warm-started."""
+    from roughcontact.surfaces import midpoint_surface
+
+    return _task(midpoint_surface(levels, 2.3, spacing=1e-4, rms_height=1e-5, seed=seed))
+
+
+def fourier_task(n: int, seed: int = 1):
+    """:func:`ensemble_task` on a grid of any ``n`` nodes a side: a non-periodic Fourier surface
+    (Δ = 2.3, rms height 10 µm, spacing 100 µm), the same half-spaces and loads."""
+    from roughcontact.surfaces import fourier_surface
+
+    return _task(fourier_surface(n, 1e-4, fractal_dimension=2.3, rms_height=1e-5, periodic=False, seed=seed))
+
+
+def _task(topo):
+    """(topo, the rock interface, the 12 loads from 0.005 % to 0.5 % of E* A0)."""
     import numpy as np
 
     from roughcontact.materials import Interface, Material
-    from roughcontact.surfaces import midpoint_surface
 
     rock = Interface(Material(20e9, 0.2), Material(20e9, 0.2))
-    topo = midpoint_surface(levels, 2.3, spacing=1e-4, rms_height=1e-5, seed=seed)
     loads = np.geomspace(5e-4, 5e-2, 12) * 0.1 * rock.contact_modulus * topo.nominal_area
     return topo, rock, loads
 

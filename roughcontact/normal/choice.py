@@ -10,21 +10,23 @@ the free rotation found with the forces on every level):
 - **operator**: ``"fft-periodic"`` for a surface declared periodic whose
   footprint is the whole grid (one period of a periodic interface); the
   explicit ``"dense"`` matrix up to :data:`DENSE_NODES` footprint nodes
-  (33², where the active set is taken and its explicit blocks make it
-  faster than on the FFT operator: a 12-load task on 33², 0.053 s
-  against 0.091 s with the rotation free, 0.034 against 0.059 s fixed);
-  ``"fft"`` above: with the CG the FFT operator is faster from 65² (0.143
-  against 0.171 s free, 0.104 against 0.123 s fixed) and twice as fast at
-  129² (0.400 against 0.809 s free), and the dense matrix does not fit in
-  memory beyond ~192².
+  (44², where the active set is taken and its explicit blocks make it
+  faster than on the FFT operator: a 12-load task on 33², 0.13–0.14 s
+  against 0.27–0.28 s with the rotation free, 0.09 against 0.17–0.19 s
+  fixed); ``"fft"`` above: with the CG the FFT operator is as fast as the
+  dense matrix at 46²–48² and faster from 56² (0.17–0.22 against
+  0.19–0.25 s free at 56², 0.21–0.24 against 0.25–0.31 s at 65²), and the
+  dense matrix does not fit in memory beyond ~192².
 - **method**: the active set (``"ksp"``) up to :data:`ACTIVE_SET_NODES`
-  footprint nodes (33²), where with the rotation free, as an ensemble's
-  tasks are, it is 1.7 times as fast as the CG (0.053 s against 0.092 s
-  per 12-load task at 33² on the dense matrix); the bound-constrained
-  ``"cg"`` above (faster than the active set from 65²: 0.143 against
-  0.527 s free, 0.104 against 0.333 s fixed on the FFT operator), and
-  always on ``"fft-periodic"``. ``"gauss-seidel"`` (the
-  paper's) is a reference only. The stability map
+  footprint nodes (44²), the bound-constrained ``"cg"`` above, and always
+  on ``"fft-periodic"``. A 12-load task's time on the active set (dense)
+  over the CG's (FFT), medians over surfaces and rotations: 0.68 at 33²,
+  0.75 / 0.84 / 0.86 at 36² / 40² / 42², 0.97 at 44² (0.67–1.22), 1.18 at
+  46² and 48², 4.1 at 56², 4.9 at 65² (``python -m
+  benchmarks.bench_crossover --levels 5 6 --sizes 40 44 48 56 --seeds 1 2``
+  and ``--levels --sizes 36 42 44 46 --seeds 1 2 3``, medians of 5; the
+  CG with the smooth extension from 16², docs/solvers.md). ``"gauss-seidel"``
+  (the paper's) is a reference only. The stability map
   (benchmarks/bench_stability.py) found no case, 64² to 1024², where the CG
   or the active set fails.
 """
@@ -39,9 +41,9 @@ METHODS = ("ksp", "gauss-seidel", "cg")
 ACTIVE_SET_METHODS = ("ksp", "gauss-seidel")
 
 #: Footprint nodes up to which ``operator="auto"`` takes the explicit matrix.
-DENSE_NODES = 33 * 33
+DENSE_NODES = 44 * 44
 #: Footprint nodes up to which ``method="auto"`` takes the active set.
-ACTIVE_SET_NODES = 33 * 33
+ACTIVE_SET_NODES = 44 * 44
 
 
 def auto_operator(nodes: int, periodic: bool) -> tuple[str, str]:

@@ -74,5 +74,6 @@ def main() -> None:
                     print(json.dumps(row), flush=True)
     save_json(rows, args.output)
 
+
 if __name__ == "__main__":
     main()

@@ -25,12 +25,20 @@ makes the surface and drops it), as a run too large for the whole surface on
 every rank would; a row also gives the topography's bytes on each rank and
 the resident set before the solve, from which the machine's total follows.
 
+``--sweep``: instead of one solve of a scene, an ensemble task's sweep
+(:func:`benchmarks.common.ensemble_task` on 2^k + 1 nodes a side for a size
+of 2^k: 12 warm-started loads from 0.005 % to 0.5 % of E* A0, 94 % of the
+nodes in contact at the last at 1025², the rotation free with
+``--free-rotation``, as a study's tasks), whose peak
+climbs from load to load above a single solve's (the allocator keeps what
+the earlier loads freed); its row gives each load's running peak too.
+
 The solve keeps its result's fields on each rank's own rows (``gather=False``,
 :mod:`roughcontact.normal.fields`), as a run too large to replicate N values on every rank
 would; ``--gather`` measures the default, whole fields on every rank (25 B per node more).
 
     python -m benchmarks.bench_memory [--sizes 1024 2048] [--ranks 1 2 4] [--scenes scene full] [--gather]
-        [--by-rows] [--free-rotation] [--output results/bench_memory.json]
+        [--by-rows] [--free-rotation] [--sweep] [--output results/bench_memory.json]
 """
 from __future__ import annotations
 
@@ -74,6 +82,9 @@ def worker(args) -> None:
     comm = MPI.COMM_WORLD
     rows: list[dict] = []
     for n in args.sizes:
+        if args.sweep:
+            emit(comm, rows, sweep_row(args, n, comm))
+            continue
         if args.by_rows:
             # rank 0 makes the surface and hands each rank its rows; the whole one is then dropped
             whole = scene_topography(n, **SHAPES[args.scene]) if comm.Get_rank() == 0 else None
@@ -106,6 +117,36 @@ def worker(args) -> None:
             "topography_bytes_per_rank": topography_bytes, "resident_before_bytes_per_rank": base_max, "iterations": result.linear_iterations,
             "residual": result.residual})
     write_rows(comm, rows, args.json)
+
+
+def sweep_row(args, n: int, comm) -> dict:
+    """The ``--sweep`` row of size ``n`` (module docstring; collective)."""
+    from mpi4py import MPI
+
+    from benchmarks.common import ensemble_task
+    from roughcontact.normal import NormalProblem, make_solver
+    from roughcontact.operators import operator_memory
+    from roughcontact.operators.heap import release_free_blocks
+
+    topography, rock, loads = ensemble_task(int(np.log2(n)))
+    release_free_blocks()
+    reset = comm.allreduce(reset_peak(), op=MPI.LAND)
+    base = proc_status("VmRSS")
+    nodes = topography.shape[0] * topography.shape[1]
+    running = []
+    problem = NormalProblem(topography, rock, comm, operator="fft")
+    with make_solver(problem, "cg") as solver:
+        for load in loads:
+            result = solver.solve_load(load, gather=args.gather,
+                                       **({} if args.free_rotation else {"rotation": (0.0, 0.0)}))
+            running.append(comm.allreduce(proc_status("VmHWM") - base, op=MPI.MAX) / nodes)
+    problem.destroy()
+    peak = comm.allreduce(proc_status("VmHWM") - base, op=MPI.MAX)
+    return {
+        "scene": "sweep", "n": topography.shape[0], "ranks": comm.Get_size(),
+        "contact_fraction": result.contact_fraction, "peak_bytes_per_rank": peak, "peak_per_node": peak / nodes,
+        "running_peak_per_node": running, "estimate_bytes_per_rank": operator_memory("fft", nodes, comm.Get_size()),
+        "peak_reset": bool(reset), "gathered": args.gather, "by_rows": False, "free_rotation": args.free_rotation}
 
 
 def report(rows: list[dict]) -> dict:
@@ -143,14 +184,21 @@ def main() -> None:
                              "from rank 0) instead of the whole one")
     parser.add_argument("--free-rotation", action="store_true",
                         help="the rotation found from zero moments (a study's default) instead of fixed")
+    parser.add_argument("--sweep", action="store_true",
+                        help="an ensemble task's 12-load sweep instead of one solve of a scene")
     args = parser.parse_args()
+    if args.sweep and args.by_rows:
+        parser.error("--sweep makes its surface whole on every rank; it does not take --by-rows")
+    if args.sweep and any(n < 2 or n & (n - 1) for n in args.sizes):
+        parser.error("--sweep takes sizes that are powers of two (the midpoint surface has 2^k + 1 nodes a side)")
     if args.worker:
         return worker(args)
     # one process per size and rank count: memory freed by an earlier solve stays in the process
     # (the allocator keeps it), which would hide part of the next one's peak
     extra = [flag for flag, on in (("--gather", args.gather), ("--by-rows", args.by_rows),
-                                   ("--free-rotation", args.free_rotation)) if on]
-    rows = [row for scene in args.scenes for n in args.sizes
+                                   ("--free-rotation", args.free_rotation), ("--sweep", args.sweep)) if on]
+    scenes = ["sweep"] if args.sweep else args.scenes
+    rows = [row for scene in scenes for n in args.sizes
             for row in run_on_ranks(__spec__.name, args.ranks, ["--sizes", str(n), "--scene", scene, *extra])]
     save_json({"rows": rows, "report": report(rows)}, args.output)
 

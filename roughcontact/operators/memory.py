@@ -8,7 +8,9 @@ The estimate is the high-water resident set of a whole normal solve on the
 busiest rank (problem, operator, solver, result), above what the process
 held once the topography was made, as measured by
 ``benchmarks/bench_memory.py`` (each size and rank count in processes of its
-own, the high-water mark reset after the surface):
+own, the high-water mark reset after the surface), and of a study task's
+sweep of warm-started loads, which climbs above one solve's (``--sweep``;
+:data:`REPLICATED`):
 
 - what every rank holds whatever the number of ranks — the result's fields
   in the default, gathered form (a :class:`~roughcontact.normal.result.NormalResult`
@@ -82,12 +84,17 @@ from .kernel import BLOCK_CHUNK
 #: the operators built from a topography (one list for the package; numpy only, so it can be
 #: read before PETSc starts)
 KINDS = ("dense", "fft", "fft-periodic")
-#: bytes per node held on every rank
-REPLICATED = 50
-#: bytes per node split over the ranks (near full contact the most: 252 B/node on one rank at 2048²);
-#: on one rank also the bound of a solve's own allocations with its fields by rows
-#: (tests/test_normal_distributed.py)
-DISTRIBUTED = 265
+#: bytes per node held on every rank. A study's task is a sweep of warm-started loads, whose
+#: resident peak climbs from load to load (the allocator keeps what the earlier solves freed) above
+#: a single solve's: the ensemble task's 12 loads with the rotation free, to 94 % in contact, took
+#: 340.0 / 216.0 / 142.1 B/node at 1025² on 1 / 2 / 4 ranks, gathered (``bench_memory --sweep``:
+#: a fit R = 80, D = 262; 338.3 / 216.5 / 132.8 at 2049² in a scratch run; docs/solvers.md, "Load
+#: sweeps"), where the constants were 50 and 265, fitted on single solves
+REPLICATED = 85
+#: bytes per node split over the ranks (above; a single solve near full contact took at most 252
+#: B/node on one rank at 2048²); on one rank also the bound of a solve's own allocations with its
+#: fields by rows (tests/test_normal_distributed.py)
+DISTRIBUTED = 290
 
 # Explicit blocks H_SS of small contact sets (the active set's Krylov solves, the free rotation's
 # Hessian; operators/flexibility.py), which a solve may hold beside its vectors:

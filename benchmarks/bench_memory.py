@@ -71,12 +71,32 @@ def reset_peak() -> bool:
         return False
 
 
+def start_peak(comm) -> tuple[bool, int]:
+    """(whether every rank's high-water mark was reset, this rank's resident set now): the point
+    a row's peak is measured from, after the heap's retained free blocks are given back (what the
+    heap keeps of freed blocks is not the solve's; collective)."""
+    from mpi4py import MPI
+
+    from roughcontact.operators.heap import release_free_blocks
+
+    release_free_blocks()
+    reset = comm.allreduce(reset_peak(), op=MPI.LAND)
+    return bool(reset), proc_status("VmRSS")
+
+
+def peak_since(comm, base: int, key: str = "VmHWM") -> int:
+    """The busiest rank's high-water mark (or resident set, ``key`` VmRSS) above its ``base``
+    (collective)."""
+    from mpi4py import MPI
+
+    return comm.allreduce(proc_status(key) - base, op=MPI.MAX)
+
+
 def worker(args) -> None:
     MPI = worker_mpi()
 
     import roughcontact.normal  # noqa: F401 - its imports belong to the process, not to the solve
     from roughcontact.operators import operator_memory
-    from roughcontact.operators.heap import release_free_blocks
     from roughcontact.surfaces import TopographyRows
 
     comm = MPI.COMM_WORLD
@@ -95,17 +115,12 @@ def worker(args) -> None:
         held = (topography.local_heights, topography.local_footprint) if args.by_rows else \
             (topography.heights, topography.footprint)
         topography_bytes = comm.allreduce(sum(a.nbytes for a in held), op=MPI.MAX)
-        # what a retained heap (roughcontact.operators.heap) still holds of freed blocks is not the
-        # solve's: given back before the resident set is noted
-        release_free_blocks()
-        reset = comm.allreduce(reset_peak(), op=MPI.LAND)
-        base = proc_status("VmRSS")
+        reset, base = start_peak(comm)
         base_max = comm.allreduce(base, op=MPI.MAX)
         problem = scene_problem(topography, comm)
         result = solve_scene(problem, PRESSURES[args.scene], gather=args.gather, free_rotation=args.free_rotation)
         problem.destroy()
-        peak = comm.allreduce(proc_status("VmHWM") - base, op=MPI.MAX)
-        held = comm.allreduce(proc_status("VmRSS") - base, op=MPI.MAX)
+        peak, held = peak_since(comm, base), peak_since(comm, base, "VmRSS")
         nodes = n * n
         emit(comm, rows, {
             "scene": args.scene, "n": n, "ranks": comm.Get_size(), "contact_fraction": result.contact_fraction,
@@ -121,17 +136,13 @@ def worker(args) -> None:
 
 def sweep_row(args, n: int, comm) -> dict:
     """The ``--sweep`` row of size ``n`` (module docstring; collective)."""
-    from mpi4py import MPI
 
     from benchmarks.common import ensemble_task
     from roughcontact.normal import NormalProblem, make_solver
     from roughcontact.operators import operator_memory
-    from roughcontact.operators.heap import release_free_blocks
 
     topography, rock, loads = ensemble_task(int(np.log2(n)))
-    release_free_blocks()
-    reset = comm.allreduce(reset_peak(), op=MPI.LAND)
-    base = proc_status("VmRSS")
+    reset, base = start_peak(comm)
     nodes = topography.shape[0] * topography.shape[1]
     running = []
     problem = NormalProblem(topography, rock, comm, operator="fft")
@@ -139,9 +150,9 @@ def sweep_row(args, n: int, comm) -> dict:
         for load in loads:
             result = solver.solve_load(load, gather=args.gather,
                                        **({} if args.free_rotation else {"rotation": (0.0, 0.0)}))
-            running.append(comm.allreduce(proc_status("VmHWM") - base, op=MPI.MAX) / nodes)
+            running.append(peak_since(comm, base) / nodes)
     problem.destroy()
-    peak = comm.allreduce(proc_status("VmHWM") - base, op=MPI.MAX)
+    peak = peak_since(comm, base)
     return {
         "scene": "sweep", "n": topography.shape[0], "ranks": comm.Get_size(),
         "contact_fraction": result.contact_fraction, "peak_bytes_per_rank": peak, "peak_per_node": peak / nodes,

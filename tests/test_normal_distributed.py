@@ -9,6 +9,7 @@ from scipy.spatial import ConvexHull
 
 from roughcontact.materials import Interface, Material
 from roughcontact.normal import NormalProblem
+from roughcontact.normal import problem as problem_module
 from roughcontact.surfaces import Topography
 
 from conftest import traced_peak, traced_share
@@ -51,7 +52,7 @@ def test_derived_geometry_equals_the_whole_grid_computation(comm, shape):
 
 
 @pytest.mark.parametrize("shape", ["disc", "band", "square"])
-def test_moments_and_the_tilted_interpenetration_by_rows_and_columns(comm, shape):
+def test_moments_and_the_tilted_interpenetration_by_rows_and_columns(comm, shape, monkeypatch):
     """The problem keeps the coordinates by grid row and column, not by node. The load's moments
     (Σ p, Σ p y, Σ p x; Eq. 8) summed by rows and columns equal numpy's sums over all nodes to
     round-off (rtol 1e-13: sums of ~2000 terms of one sign in double, a different order), and the
@@ -74,11 +75,39 @@ def test_moments_and_the_tilted_interpenetration_by_rows_and_columns(comm, shape
     per_node = rigid[0] - rigid[1] * y - rigid[2] * x - problem.gap0
     assert np.array_equal(problem.interpenetration(rigid), per_node)
     assert np.array_equal(problem.interpenetration(np.array([2e-6, 0.0, 0.0])), 2e-6 - problem.gap0)
-    # C = [1, −y, −x] (Eq. 8) at some of the rank's nodes, by index and by mask: the coordinates' bits
+    # C = [1, −y, −x] (Eq. 8) at some of the rank's nodes, by index and by mask: the coordinates' bits,
+    # in one chunk and in chunks of 7 nodes (the last one short)
     chosen = np.random.default_rng(12).random(x.size) < 0.3
     columns = np.stack([np.ones(x.size), -y, -x], axis=1)[chosen]
-    assert np.array_equal(problem.columns_at(chosen), columns)
-    assert np.array_equal(problem.columns_at(np.flatnonzero(chosen)), columns)
+    for chunk in (problem_module.ARMS_CHUNK, 7):
+        monkeypatch.setattr(problem_module, "ARMS_CHUNK", chunk)
+        assert np.array_equal(problem.columns_at(chosen), columns)
+        assert np.array_equal(problem.columns_at(np.flatnonzero(chosen)), columns)
+        assert np.array_equal(problem.arms_at(chosen), columns[:, 1:].T)
+        assert problem.arms_at(chosen).flags.c_contiguous
+    problem.destroy()
+
+
+@pytest.mark.parametrize("shape", ["disc", "square"])
+def test_the_columns_of_a_set_take_their_own_size_and_a_chunks(shape, monkeypatch):
+    """C's columns at a set S (the free rotation's C_S, Eq. 8) allocate the result and one chunk's
+    temporaries: traced peak ≤ 24 |S| (columns_at) or 16 |S| (arms_at) + 32 B per chunk node (its
+    positions, rows and columns, and one coordinate taken) + 8 KiB of numpy's bookkeeping (the
+    arrays' headers). Made whole, the positions, rows, columns and three stacked columns had taken
+    about 72 B per node of the set beside the result, the peak of a study's load sweep near full
+    contact. One rank, a 160² grid (about 11 000 nodes of the set) in chunks of 256 nodes."""
+    from mpi4py import MPI
+
+    monkeypatch.setattr(problem_module, "ARMS_CHUNK", 256)
+    topo = disc_topography(n=160, shape="disc" if shape == "square" else shape)
+    if shape == "square":
+        topo = Topography(np.nan_to_num(topo.heights), topo.spacing)
+    problem = NormalProblem(topo, ROCK, MPI.COMM_SELF, operator="fft")
+    nodes = np.flatnonzero(np.random.default_rng(5).random(problem.local_size) < 0.9)
+    problem.arms_at(nodes[:10])                 # first calls of numpy's paths, not counted
+    allowance = 32 * 256 + 8192
+    assert traced_peak(problem.columns_at, nodes) <= 24 * nodes.size + allowance
+    assert traced_peak(problem.arms_at, nodes) <= 16 * nodes.size + allowance
     problem.destroy()
 
 

@@ -83,7 +83,7 @@ from scipy.linalg.blas import dgemv
 from ..errors import ConvergenceError
 from ..operators import passes
 from ..operators.convolution import dense
-from .problem import NormalProblem
+from .problem import NormalProblem, node_indices
 
 #: a set is solved to THETA times the residual it started from. Near full contact (Δ = 2.5, 1 E*,
 #: the sets after a coarse grid's start), steps (+ sets) at 2048²: 0.01 28 (+7), 0.03 27 (+8),
@@ -150,7 +150,7 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
     found = _Motion(pb, load, loads, workers)
     found.rescale(forces)
     contact = forces > 0.0
-    if not found.on(np.flatnonzero(contact)):
+    if not found.on(contact):
         return _unsettled(forces, 0, [])
     found.correct(forces)
     products, step, history = 0, 0, []
@@ -231,7 +231,9 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
             g = passes.add_scaled(g, -alpha, on_set)
             found.project(g)
             del d, product, on_set
-        # the set moves: tension leaves, interpenetration enters (§3.1)
+        # the set moves: tension leaves, interpenetration enters (§3.1); the set's gap is taken
+        # again at the top
+        del g
         motion = found.fit(lifted[nodes])
         tension = contact & (forces < 0.0)
         entering = outside & (lifted < found.field(motion))
@@ -246,7 +248,8 @@ def settle(problem: NormalProblem, forces: np.ndarray, w: np.ndarray | None, loa
         contact &= ~tension
         contact |= entering
         found.rescale(forces)
-        if not found.on(np.flatnonzero(contact)):
+        nodes = None                               # the last set's indices go before the next's are made
+        if not found.on(contact):
             return _unsettled(forces, products, history)
         found.correct(forces)
         exact, holding, confirming = True, False, False
@@ -292,16 +295,18 @@ class _Motion:
         self.gram = self.scale = None              # C_Sᵀ C_S scaled to a unit diagonal, the scaling
 
     def on(self, nodes: np.ndarray) -> bool:
-        """The contact set S from now on (this rank's node indices); collective with the moments
-        imposed. False where S cannot hold the moments: its nodes on one line or nearly (C_Sᵀ C_S's
-        condition above GRAM_CONDITION), where a few nodes do not surround the load point."""
-        self.nodes = nodes
+        """The contact set S from now on (this rank's node indices, or a mask over its nodes; the
+        indices kept as ``nodes``); collective with the moments imposed. False where S cannot hold
+        the moments: its nodes on one line or nearly (C_Sᵀ C_S's condition above GRAM_CONDITION),
+        where a few nodes do not surround the load point."""
+        self.nodes = self.columns = None           # the last set's, let go before the next's are made
+        self.nodes = nodes = node_indices(nodes)
         if self.loads is None:
             return True
         pb = self.problem
         # −y and −x of the set's nodes as two rows, from the rows' and columns' coordinates (no
         # array of every node's)
-        self.columns = np.ascontiguousarray(pb.columns_at(nodes)[:, 1:].T)
+        self.columns = pb.arms_at(nodes)
         sums = self.columns.sum(axis=1)
         gram = np.empty((3, 3))
         gram[0] = nodes.size, *sums

@@ -24,6 +24,15 @@ from ..materials import Interface
 from ..surfaces.rows import gather_into
 from ..surfaces.topography import Topography
 
+#: the nodes whose coordinates C's columns are made from at a time (:meth:`NormalProblem.columns_at`)
+ARMS_CHUNK = 1 << 16
+
+
+def node_indices(nodes: np.ndarray) -> np.ndarray:
+    """Local node indices from indices or a mask over a rank's nodes."""
+    nodes = np.asarray(nodes)
+    return np.flatnonzero(nodes) if nodes.dtype == bool else nodes
+
 
 class NormalProblem(Collective):
     """Layout of one normal contact problem on a communicator.
@@ -167,11 +176,31 @@ class NormalProblem(Collective):
         rank's nodes), from the rows' and columns' coordinates: |nodes| × 3 values, and no array
         of every node's coordinates (a Hessian of the free rotation on a light load's few contact
         nodes had made C on all nodes, with x and y, 56 B per node)."""
-        nodes = np.asarray(nodes)
-        layout = self.flexibility.layout
-        positions = layout.slab_positions(np.flatnonzero(nodes) if nodes.dtype == bool else nodes)
-        row, column = np.divmod(positions, layout.shape[1])
-        return np.stack([np.ones(row.size), -self._y_columns[column], -self._x_rows[row]], axis=1)
+        nodes = node_indices(nodes)
+        columns = np.empty((nodes.size, 3))
+        columns[:, 0] = 1.0
+        self._arms_into(nodes, columns[:, 1], columns[:, 2])
+        return columns
+
+    def arms_at(self, nodes: np.ndarray) -> np.ndarray:
+        """C's columns −y and −x (Eq. 8) at this rank's ``nodes`` as two contiguous rows, 2 × |nodes|
+        values, for the moments Σ p·(−y), Σ p·(−x) by BLAS."""
+        nodes = node_indices(nodes)
+        arms = np.empty((2, nodes.size))
+        self._arms_into(nodes, arms[0], arms[1])
+        return arms
+
+    def _arms_into(self, nodes: np.ndarray, minus_y: np.ndarray, minus_x: np.ndarray) -> None:
+        """−y and −x of the nodes ``nodes`` (local indices) into ``minus_y`` and ``minus_x``, in
+        chunks of ARMS_CHUNK nodes: the positions, rows and columns of a whole set near full contact
+        (8 B per node each, beside the three columns stacked and then copied) had been the peak of
+        a study's load sweep, 70 B per node of the set."""
+        positions_of = self.flexibility.layout.slab_positions
+        width = self.flexibility.layout.shape[1]
+        for start in range(0, nodes.size, ARMS_CHUNK):
+            row, column = np.divmod(positions_of(nodes[start:start + ARMS_CHUNK]), width)
+            np.negative(self._y_columns[column], out=minus_y[start:start + ARMS_CHUNK])
+            np.negative(self._x_rows[row], out=minus_x[start:start + ARMS_CHUNK])
 
     @property
     def local_size(self) -> int:

@@ -89,7 +89,7 @@ def test_moments_and_the_tilted_interpenetration_by_rows_and_columns(comm, shape
 
 
 @pytest.mark.parametrize("shape", ["disc", "square"])
-def test_the_columns_of_a_set_take_their_own_size_and_a_chunks(shape, monkeypatch):
+def test_the_columns_of_a_set_allocate_their_own_size_and_one_chunks_temporaries(shape, monkeypatch):
     """C's columns at a set S (the free rotation's C_S, Eq. 8) allocate the result and one chunk's
     temporaries: traced peak ≤ 24 |S| (columns_at) or 16 |S| (arms_at) + 32 B per chunk node (its
     positions, rows and columns, and one coordinate taken) + 8 KiB of numpy's bookkeeping (the

@@ -194,7 +194,7 @@ class NormalProblem(Collective):
         """−y and −x of the nodes ``nodes`` (local indices) into ``minus_y`` and ``minus_x``, in
         chunks of ARMS_CHUNK nodes: the positions, rows and columns of a whole set near full contact
         (8 B per node each, beside the three columns stacked and then copied) had been the peak of
-        a study's load sweep, 70 B per node of the set."""
+        a study's load sweep, about 72 B per node of the set."""
         positions_of = self.flexibility.layout.slab_positions
         width = self.flexibility.layout.shape[1]
         for start in range(0, nodes.size, ARMS_CHUNK):

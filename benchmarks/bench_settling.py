@@ -1,13 +1,15 @@
 #!/usr/bin/env python3
 """Where the primal–dual steps pay on warm and fresh starts: the share of the nodes in contact at the start.
 
-Levels of ``CGSettings.primal_dual_from`` nodes or more whose start holds ``CGSettings.primal_dual_share``
+Levels of ``CGSettings.primal_dual_from`` nodes or more whose start holds ``CGSettings.primal_dual_share`` (fresh)
+or ``CGSettings.primal_dual_warm_share`` (warm)
 of their nodes in contact or more settle the set by the primal–dual active set first
 (roughcontact/normal/primal_dual.py) wherever the rotation is fixed or imposed, and in the Newton's
 first evaluation where it is found by the Newton; the others run the constrained CG alone. Each
 part solves the same problems every way, alternated in one process (one rank, the FFT operator,
 the defaults otherwise): ``rule`` (the defaults) against ``cg`` (``primal_dual_from=None``); with
-``--steps`` also ``steps`` (``primal_dual_share=0``: the steps from any start on those levels), and
+``--steps`` also ``steps`` (``primal_dual_share=0`` and ``primal_dual_warm_share=0``: the steps from
+any start on those levels; the defaults take them from any warm start already), and
 with ``--unscaled`` ``unscaled`` in the closure sweeps (the constrained CG alone with
 ``energy_scale=False``: the forces not rescaled to the energy's minimum along them).
 
@@ -54,7 +56,7 @@ def ways(steps: bool, unscaled: bool = False, **common) -> dict:
 
     chosen = {"rule": CGSettings(**common), "cg": CGSettings(primal_dual_from=None, **common)}
     if steps:
-        chosen["steps"] = CGSettings(primal_dual_share=0.0, **common)
+        chosen["steps"] = CGSettings(primal_dual_share=0.0, primal_dual_warm_share=0.0, **common)
     if unscaled:
         chosen["unscaled"] = CGSettings(primal_dual_from=None, energy_scale=False, **common)
     return chosen
@@ -173,7 +175,7 @@ def main() -> None:
                         help="the fresh part's mean pressures over E*")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--steps", action="store_true",
-                        help="also the primal-dual steps from any start (primal_dual_share=0)")
+                        help="also the primal-dual steps from any start (both shares 0)")
     parser.add_argument("--unscaled", action="store_true",
                         help="also the constrained CG without the energy's rescaling of the forces under "
                              "displacement control (energy_scale=False), in the closure sweeps")

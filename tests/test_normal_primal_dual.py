@@ -319,7 +319,7 @@ def test_a_warm_start_settles_its_set_too(comm, control):
 
 
 def test_the_share_in_contact_is_counted_at_the_start(comm):
-    """``primal_dual_share`` at the boundary: a warm start holding k of the N nodes in contact (the
+    """``primal_dual_warm_share`` at the boundary: a warm start holding k of the N nodes in contact (the
     last solution's set) settles its set first where the share s gives s · N = k exactly (at least
     the share: ≥, not >), and is left to the constrained CG alone at the first float above s whose s · N passes k; the
     same state either way. The first load starts from the punches (no coarse level); both solvers'
@@ -340,7 +340,8 @@ def test_the_share_in_contact_is_counted_at_the_start(comm):
         above = np.nextafter(above, 1.0)
     states = []
     for share in (float(exact[0]), float(above)):
-        settings = replace(SETTLING, primal_dual_share=share)
+        # the warm start's share decides; the first, fresh start (15 % in contact) stays below both
+        settings = replace(SETTLING, primal_dual_share=share, primal_dual_warm_share=share)
         with make_solver(problem, "cg", nested=False, settings=settings) as solver:
             start = first(solver)
             states.append(solver.solve_load(0.8 * NEAR_FULL, rotation=(0.0, 0.0)))
@@ -411,13 +412,45 @@ def test_bad_primal_dual_levels_are_named(name, value):
         CGSettings(**{name: value})
 
 
+@pytest.mark.parametrize("name", ["primal_dual_share", "primal_dual_warm_share"])
 @pytest.mark.parametrize("value", [-0.1, 1.5, float("nan"), float("inf"), True, np.bool_(False), "half", None])
-def test_a_bad_primal_dual_share_is_named(value):
-    with pytest.raises(InputError, match="primal_dual_share"):
-        CGSettings(primal_dual_share=value)
+def test_a_bad_primal_dual_share_is_named(name, value):
+    with pytest.raises(InputError, match=name):
+        CGSettings(**{name: value})
 
 
+@pytest.mark.parametrize("name", ["primal_dual_share", "primal_dual_warm_share"])
 @pytest.mark.parametrize("value", [0, 1, 0.25, np.float64(0.5), np.float32(0.75), np.int64(1)])
-def test_a_primal_dual_share_from_0_to_1_is_taken(value):
-    assert CGSettings(primal_dual_share=value).primal_dual_share == value
+def test_a_primal_dual_share_from_0_to_1_is_taken(name, value):
+    assert getattr(CGSettings(**{name: value}), name) == value
+
+
+def test_a_sparse_warm_start_settles_its_set_and_a_sparse_fresh_one_does_not(comm, caplog):
+    """A light load's next load (a few per cent in contact, below the quarter of
+    ``primal_dual_share``), started from the last solution: by default (``primal_dual_warm_share``
+    0) the primal–dual steps take it, every fine step one of theirs; with the warm share at the
+    quarter the constrained CG alone does, as it does the fresh first load either way. Both reach
+    the paper's active set's state at that load."""
+    problem = near_full_problem(comm)
+    at = lambda load: lambda s: s.solve_load(load, rotation=(0.0, 0.0))    # noqa: E731
+    reference = solve(problem, "ksp", at(0.012))
+    states = {}
+    for warm_share in (0.0, 0.25):
+        with make_solver(problem, "cg", settings=replace(SETTLING, primal_dual_share=0.25,
+                                                         primal_dual_warm_share=warm_share)) as solver:
+            with caplog.at_level(logging.DEBUG, logger="roughcontact.normal.constrained_cg"):
+                caplog.clear()
+                fresh = solver.solve_load(0.01, rotation=(0.0, 0.0))
+                fresh_steps = fine_steps(caplog, problem.size)
+                caplog.clear()
+                states[warm_share] = solver.solve_load(0.012, rotation=(0.0, 0.0))
+                warm_steps = fine_steps(caplog, problem.size)
+        assert np.count_nonzero(fresh.contact) < 0.25 * problem.size
+        assert fresh_steps and not any("primal-dual" in step["restart"] for step in fresh_steps)
+        assert states[warm_share].coarse_iterations == 0                     # a warm start
+        settled = [step for step in warm_steps if "primal-dual" in step["restart"]]
+        assert (settled == warm_steps and warm_steps) if warm_share == 0.0 else not settled
+    for state in states.values():
+        assert_same_state(reference, state)
+    problem.destroy()
 

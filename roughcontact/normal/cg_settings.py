@@ -33,6 +33,12 @@ PRIMAL_DUAL_FROM = 512 * 512
 #: and fresh starts lost at 2 % and below (docs/solver-cost.md, "The primal–dual steps from a quarter
 #: of the nodes in contact")
 PRIMAL_DUAL_SHARE = 0.25
+#: the same share for a warm start (a neighbour's solution: the next load or closure of a sweep)
+#: (``CGSettings.primal_dual_warm_share``): any. With the preconditioner on the set's smooth extension
+#: the steps from any warm start took 0.84 / 0.89 of the quarter's time along an ensemble task's
+#: 513² sweeps with the rotation fixed, 0.93 at 1025², its closures 0.94, the Newton's first
+#: evaluations 0.975 (docs/solver-cost.md, "The quarter's rule with the extension")
+PRIMAL_DUAL_WARM_SHARE = 0.0
 #: the levels (nodes) from which a free rotation is found with the forces (any start, any share in contact)
 #: by the primal–dual steps (``CGSettings.rotation_from``): every level
 ROTATION_FROM = 1
@@ -259,7 +265,8 @@ class CGSettings:
         (docs/solver-cost.md, "The contact set settled by a primal–dual
         active set").
     primal_dual_share
-        The share of a level's nodes in contact at its start, fresh or warm,
+        The share of a level's nodes in contact at its start, fresh (and warm
+        until ``primal_dual_warm_share`` was set apart for those),
         from which ``primal_dual_from`` settles the set first, 0–1. An
         ensemble task's 12-load sweep with the rotation fixed, each load
         started from the last one's solution (``python -m
@@ -284,6 +291,18 @@ class CGSettings:
         rotation found by the Newton alone (``rotation_from=None``, the
         first evaluation of each load): 0.72–0.97 (docs/solver-cost.md,
         "The forces' scale under displacement control").
+    primal_dual_warm_share
+        ``primal_dual_share`` for a warm start (the last solution of the
+        same solver: a sweep's next load or closure), 0–1; ``primal_dual_share``
+        then decides fresh starts (a coarse grid's or the punches') alone.
+        With the preconditioner on the set's smooth extension, the steps from
+        any warm start (0, the default) against the quarter (``python -m
+        benchmarks.bench_settling --parts sweeps --steps``, one rank,
+        alternated, medians of 3): an ensemble task's load sweeps with the
+        rotation fixed 0.84 / 0.89 of the time at 513² (seeds 1 / 2) and 0.93
+        at 1025², its warm loads below a quarter 0.67–1.04; its closures 0.94
+        and the Newton's first evaluations (``rotation_from=None``) 0.975 at
+        513² (docs/solver-cost.md, "The quarter's rule with the extension").
     rotation_from
         Under load control with the rotation free, levels of at least this
         many nodes find (δz, θx, θy) with the forces, from any start (a
@@ -352,6 +371,7 @@ class CGSettings:
     extension_from: int | None = EXTENSION_FROM
     primal_dual_from: int | None = PRIMAL_DUAL_FROM
     primal_dual_share: float = PRIMAL_DUAL_SHARE
+    primal_dual_warm_share: float = PRIMAL_DUAL_WARM_SHARE
     rotation_from: int | None = ROTATION_FROM
     energy_scale: bool = True
 
@@ -384,6 +404,9 @@ class CGSettings:
         object.__setattr__(self, "primal_dual_share", check_closed_interval(
             "primal_dual_share", self.primal_dual_share, 0.0, 1.0,
             " (the share of a level's nodes in contact from which its start settles the set first)"))
+        object.__setattr__(self, "primal_dual_warm_share", check_closed_interval(
+            "primal_dual_warm_share", self.primal_dual_warm_share, 0.0, 1.0,
+            " (the share of a level's nodes in contact from which a warm start settles the set first)"))
         _check_optional_count("rotation_from", self.rotation_from, 1, "never",
                               "the nodes from which a level finds a free rotation with the forces")
 

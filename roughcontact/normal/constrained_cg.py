@@ -46,9 +46,10 @@ preconditioner:
    the minimum of the energy along p (``CGSettings.energy_scale``), also
    at the start.
 
-On levels of ``CGSettings.primal_dual_from`` nodes or more whose start (a
-coarse grid's, the punches' or a neighbour's) holds a quarter of their
-nodes in contact or more (``CGSettings.primal_dual_share``), the set is
+On levels of ``CGSettings.primal_dual_from`` nodes or more whose fresh start
+(a coarse grid's or the punches') holds a quarter of their nodes in contact
+or more (``CGSettings.primal_dual_share``), or whose start is a neighbour's
+solution (``CGSettings.primal_dual_warm_share``: any share), the set is
 settled first by the primal–dual active set (:mod:`.primal_dual`): held
 while the CG solves on it, then moved at once; this iteration goes on from
 its forces only where that gives up.
@@ -271,11 +272,13 @@ class ConstrainedCGSolver(NormalSolver):
 
     def _settles_first(self, forces: np.ndarray) -> bool:
         """Whether this solve settles its set by the primal–dual active set first: a level of
-        ``CGSettings.primal_dual_from`` nodes or more whose start, fresh or warm, holds at least
-        ``CGSettings.primal_dual_share`` of them in contact (the same answer on every rank)."""
+        ``CGSettings.primal_dual_from`` nodes or more whose start holds at least
+        ``CGSettings.primal_dual_share`` of them in contact, fresh, or ``primal_dual_warm_share``,
+        warm (the same answer on every rank)."""
         settings, pb = self.settings, self.problem
+        share = settings.primal_dual_share if self._fresh else settings.primal_dual_warm_share
         return (settings.primal_dual_from is not None and pb.size >= settings.primal_dual_from
-                and float(pb.allsum(np.count_nonzero(forces > 0.0))) >= settings.primal_dual_share * pb.size)
+                and float(pb.allsum(np.count_nonzero(forces > 0.0))) >= share * pb.size)
 
     def _primal_dual(self, rigid, free, loads, forces, tol: float | None = None, forces_in_double: bool = True):
         """The primal–dual active set (:mod:`.primal_dual`) from the start ``forces`` (changed in

@@ -39,7 +39,8 @@ one load, from a neighbour's along load sweeps (docs/solver-cost.md, "The
 primal–dual steps from a quarter of the nodes in contact").
 :class:`.ConstrainedCGSolver` takes it on levels of
 ``CGSettings.primal_dual_from`` nodes or more whose start holds at least
-``CGSettings.primal_dual_share`` of the level's nodes in contact.
+``CGSettings.primal_dual_share`` of the level's nodes in contact, fresh, or
+``CGSettings.primal_dual_warm_share`` (any), warm.
 
 With the rotation free (load control, the moments imposed; levels of
 ``CGSettings.rotation_from`` nodes or more, every level by default, from
@@ -62,8 +63,8 @@ round-off. On contacts of 3–4 nodes about the load point most sets cannot
 carry the moments (28–30 of 30 cells at 1e-5 E* on 17² and 33²): the steps
 give up at once, for 0.99–1.06 of the Newton's time. Where the steps give
 up, the Newton goes on from their forces; its first evaluation, at a fixed
-rotation, may take them again (``primal_dual_from`` and
-``primal_dual_share``).
+rotation, may take them again (``primal_dual_from``, ``primal_dual_share``
+and ``primal_dual_warm_share``).
 
 Without a globalisation the iteration may cycle between sets; it then gives
 up (MAX_SETS sets, or MAX_STEPS steps on one set) and returns its forces,

@@ -265,8 +265,8 @@ class CGSettings:
         (docs/solver-cost.md, "The contact set settled by a primal–dual
         active set").
     primal_dual_share
-        The share of a level's nodes in contact at its start, fresh (and warm
-        until ``primal_dual_warm_share`` was set apart for those),
+        The share of a level's nodes in contact at a fresh start (warm starts:
+        ``primal_dual_warm_share``; the figures below took it for both)
         from which ``primal_dual_from`` settles the set first, 0–1. An
         ensemble task's 12-load sweep with the rotation fixed, each load
         started from the last one's solution (``python -m

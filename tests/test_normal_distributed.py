@@ -10,6 +10,7 @@ from scipy.spatial import ConvexHull
 from roughcontact.materials import Interface, Material
 from roughcontact.normal import NormalProblem
 from roughcontact.normal import problem as problem_module
+from roughcontact.operators.set_blocks import capacity
 from roughcontact.surfaces import Topography
 
 from conftest import traced_peak, traced_share
@@ -91,7 +92,8 @@ def test_moments_and_the_tilted_interpenetration_by_rows_and_columns(comm, shape
 @pytest.mark.parametrize("shape", ["disc", "square"])
 def test_the_columns_of_a_set_allocate_their_own_size_and_one_chunks_temporaries(shape, monkeypatch):
     """C's columns at a set S (the free rotation's C_S, Eq. 8) allocate the result and one chunk's
-    temporaries: traced peak ≤ 24 |S| (columns_at) or 16 |S| (arms_at) + 32 B per chunk node (its
+    temporaries: traced peak ≤ 24 |S| (columns_at) or 16 capacity(|S|) (arms_at, a set-sized block:
+    :mod:`roughcontact.operators.set_blocks`) + 32 B per chunk node (its
     positions, rows and columns, and one coordinate taken) + 8 KiB of numpy's bookkeeping (the
     arrays' headers). Made whole, the positions, rows, columns and three stacked columns had taken
     about 72 B per node of the set beside the result, the peak of a study's load sweep near full
@@ -107,7 +109,8 @@ def test_the_columns_of_a_set_allocate_their_own_size_and_one_chunks_temporaries
     problem.arms_at(nodes[:10])                 # first calls of numpy's paths, not counted
     allowance = 32 * 256 + 8192
     assert traced_peak(problem.columns_at, nodes) <= 24 * nodes.size + allowance
-    assert traced_peak(problem.arms_at, nodes) <= 16 * nodes.size + allowance
+    # arms_at's rows are a set-sized block: their storage is the ladder's size (≤ 2^(1/4) |S|)
+    assert traced_peak(problem.arms_at, nodes) <= 16 * capacity(nodes.size) + allowance
     problem.destroy()
 
 

@@ -21,6 +21,7 @@ import numpy as np
 from ..collective import Collective
 from ..errors import ConvergenceError, InputError
 from ..materials import Interface
+from ..operators.set_blocks import indices_of, set_sized
 from ..surfaces.rows import gather_into
 from ..surfaces.topography import Topography
 
@@ -31,7 +32,7 @@ ARMS_CHUNK = 1 << 16
 def node_indices(nodes: np.ndarray) -> np.ndarray:
     """Local node indices from indices or a mask over a rank's nodes."""
     nodes = np.asarray(nodes)
-    return np.flatnonzero(nodes) if nodes.dtype == bool else nodes
+    return indices_of(nodes.reshape(-1)) if nodes.dtype == bool else nodes
 
 
 class NormalProblem(Collective):
@@ -186,7 +187,7 @@ class NormalProblem(Collective):
         """C's columns −y and −x (Eq. 8) at this rank's ``nodes`` as two contiguous rows, 2 × |nodes|
         values, for the moments Σ p·(−y), Σ p·(−x) by BLAS."""
         nodes = node_indices(nodes)
-        arms = np.empty((2, nodes.size))
+        arms = set_sized(nodes.size, float, rows=2)
         self._arms_into(nodes, arms[0], arms[1])
         return arms
 

@@ -54,6 +54,7 @@ from scipy.ndimage import uniform_filter1d
 
 from ..surfaces.rows import padded_rows, reached_rows, rows_window
 from . import passes
+from .set_blocks import set_sized
 
 #: the levels (nodes) from which the solver takes the extension (``CGSettings.extension_from``):
 #: measured on the ensemble task's sweeps at 17²–2049², 12-load tasks at 40² and 48², the default
@@ -125,7 +126,9 @@ class SmoothExtension:
         if self.comm.allreduce(int(not kept)):
             # g's field too: its zeros were for the set forgotten (the new set's positions may be
             # the same array object, refilled)
-            self._nodes, self._share, self._made, self._zeroed = nodes.copy(), None, None, None
+            self._nodes, self._share, self._made, self._zeroed = None, None, None, None
+            self._nodes = set_sized(nodes.size, nodes.dtype)
+            self._nodes[:] = nodes
 
     def _weights(self, nodes: np.ndarray) -> tuple:
         """(the weight 1 / max(B(1_S), τ) on the footprint off S, 0 on S and off the footprint, as

@@ -26,6 +26,8 @@ from concurrent.futures import ThreadPoolExecutor, wait
 import numpy as np
 from scipy.linalg.blas import daxpy
 
+from .set_blocks import set_sized
+
 #: values of an array below which a pass runs in the calling thread: handing a share to another
 #: thread costs about 20 µs, a pass over 2**18 float32 values about 100 µs
 SHARED_VALUES = 1 << 18
@@ -158,10 +160,8 @@ def gather(source: np.ndarray, nodes: np.ndarray, workers: int, out: np.ndarray 
     the time of the gather itself; "clip" writes straight through, and on valid indices is the
     same gather."""
     threads = shares(nodes, workers)
-    if threads <= 1 and out is None:
-        return source[nodes]
     if out is None:
-        out = np.empty(nodes.shape, dtype=source.dtype)
+        out = set_sized(nodes.size, source.dtype)
     if threads <= 1:
         return np.take(source, nodes, out=out, mode="clip")
     by_rows(threads, nodes.size, lambda a, b: np.take(source, nodes[a:b], out=out[a:b], mode="clip"))

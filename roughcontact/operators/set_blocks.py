@@ -1,0 +1,48 @@
+"""Blocks sized by a contact or free set, made in sizes that repeat from one set to the next.
+
+A solve makes, at every move of its set, arrays as long as the set: the set's node indices, its
+gathered gap, C_S's coordinates (Eq. 8), the extension's and the hole charge's copies. Made at
+the set's exact size, each is a little longer than the block its predecessor freed, so the heap
+cannot place it there: the freed blocks stay resident beside the new ones. On two ranks that free
+memory was a quarter of a study's load-sweep peak (46 of 186 B/node at 1025², against 30 of 301
+on one rank; docs/solvers.md, "Load sweeps"). :func:`set_sized` makes such a block in the next
+size of a geometric ladder (steps of 2^(1/4)), so that sets of nearby sizes take blocks of one
+size and each reuses the last one's place; only the set's share of the block is written, and the
+rest costs address space, not memory, where the block is new.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+#: the ladder's steps per doubling of a block's size
+STEPS = 4
+#: the mask's nodes searched at a time by :func:`indices_of` (its temporaries' length)
+CHUNK = 1 << 16
+
+
+def capacity(count: int) -> int:
+    """The ladder's size for ``count`` values: the least 2^(k / STEPS) ≥ count, rounded up; 1 for none."""
+    if count <= 1:
+        return 1
+    return int(np.ceil(2.0 ** (np.ceil(np.log2(count) * STEPS) / STEPS)))
+
+
+def set_sized(count: int, dtype=float, rows: int = 1) -> np.ndarray:
+    """An uninitialised contiguous (``count``,) block, or (``rows``, ``count``), in a storage of
+    ``rows`` × :func:`capacity` values (module docstring)."""
+    storage = np.empty(rows * capacity(count), dtype=dtype)[:rows * count]
+    return storage if rows == 1 else storage.reshape(rows, count)
+
+
+def indices_of(mask: np.ndarray, count: int | None = None) -> np.ndarray:
+    """numpy.flatnonzero(mask) of a 1-D ``mask`` into a :func:`set_sized` block, searched in
+    chunks of CHUNK nodes (``count``: the mask's True values, where known)."""
+    if count is None:
+        count = int(np.count_nonzero(mask))
+    out = set_sized(count, np.intp)
+    done = 0
+    for start in range(0, mask.size, CHUNK):
+        part = np.flatnonzero(mask[start:start + CHUNK])
+        np.add(part, start, out=out[done:done + part.size])
+        done += part.size
+    return out

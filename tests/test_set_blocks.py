@@ -1,0 +1,58 @@
+"""Set-sized blocks (roughcontact/operators/set_blocks.py): sizes on a geometric ladder, so that the
+blocks of sets of nearby sizes repeat their size, and the set's node indices exactly numpy's.
+
+The ladder is arithmetic on integers and powers of two, so its checks are exact: every capacity
+holds its count, exceeds it by less than one step (2^(1/4)), and counts between two rungs share
+one capacity. The indices must equal numpy.flatnonzero bit for bit, at chunk boundaries too.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from roughcontact.operators import set_blocks
+from roughcontact.operators.set_blocks import capacity, indices_of, set_sized
+
+STEP = 2.0 ** (1.0 / set_blocks.STEPS)
+
+
+@pytest.mark.parametrize("count", [0, 1, 2, 3, 7, 100, 1000, 65_537, 1_048_576, 3_000_001])
+def test_a_capacity_holds_its_count_within_one_step(count):
+    held = capacity(count)
+    assert held >= max(count, 1)
+    # one step of the ladder at most, and one more value for the rounding up of 2^(k/4)
+    assert held <= max(STEP * count + 1, 1)
+
+
+def test_the_capacities_are_few_and_shared_by_nearby_counts():
+    """Over 1 … 2^20 the capacities are the ladder's rungs: 4 per doubling, 81 in all; a set
+    that grows by 1 % keeps its block's size for about 20 moves between rungs."""
+    counts = np.arange(1, (1 << 20) + 1, 97)
+    held = np.array([capacity(int(c)) for c in counts])
+    assert np.all(np.diff(held) >= 0)
+    assert len(np.unique(held)) <= set_blocks.STEPS * 20 + 1
+    sizes, count = [], 10_000
+    for _ in range(200):
+        sizes.append(capacity(count))
+        count = int(count * 1.01)
+    assert len(set(sizes)) <= int(np.ceil(np.log(1.01 ** 200) / np.log(STEP))) + 1
+
+
+@pytest.mark.parametrize("rows", [1, 2])
+def test_a_set_sized_block_is_contiguous_of_its_count_on_the_ladders_storage(rows):
+    block = set_sized(1000, np.float32, rows=rows)
+    assert block.shape == ((1000,) if rows == 1 else (rows, 1000))
+    assert block.dtype == np.float32 and block.flags.c_contiguous
+    assert block.base.size == rows * capacity(1000)
+    assert set_sized(0).shape == (0,)
+
+
+@pytest.mark.parametrize("share", [0.0, 0.02, 0.5, 0.93, 1.0])
+def test_the_indices_are_numpys_across_chunks(share, monkeypatch):
+    monkeypatch.setattr(set_blocks, "CHUNK", 64)
+    for size in (0, 1, 63, 64, 65, 1000):
+        mask = np.random.default_rng(size).random(size) < share
+        found = indices_of(mask)
+        assert found.dtype == np.intp
+        np.testing.assert_array_equal(found, np.flatnonzero(mask))
+        np.testing.assert_array_equal(indices_of(mask, int(mask.sum())), np.flatnonzero(mask))

@@ -30,7 +30,8 @@ ARMS_CHUNK = 1 << 16
 
 
 def node_indices(nodes: np.ndarray) -> np.ndarray:
-    """Local node indices from indices or a mask over a rank's nodes."""
+    """Local node indices from indices, or from a mask over a rank's nodes (then a set-sized block,
+    :func:`~roughcontact.operators.set_blocks.indices_of`)."""
     nodes = np.asarray(nodes)
     return indices_of(nodes.reshape(-1)) if nodes.dtype == bool else nodes
 

@@ -155,10 +155,10 @@ def _rows_of(operand):
 
 def gather(source: np.ndarray, nodes: np.ndarray, workers: int, out: np.ndarray | None = None) -> np.ndarray:
     """source[nodes] (a 1-D ``source``; ``nodes`` valid indices, as made by ``numpy.flatnonzero``),
-    into ``out`` (a new array by default), by blocks of ``nodes``. numpy's ``take`` into an
-    ``out`` buffers the whole result where it checks the indices (mode "raise"), which took twice
-    the time of the gather itself; "clip" writes straight through, and on valid indices is the
-    same gather."""
+    into ``out`` (by default a new set-sized block, :func:`.set_blocks.set_sized`), by blocks of
+    ``nodes``. numpy's ``take`` into an ``out`` buffers the whole result where it checks the
+    indices (mode "raise"), which took twice the time of the gather itself; "clip" writes straight
+    through, and on valid indices is the same gather."""
     threads = shares(nodes, workers)
     if out is None:
         out = set_sized(nodes.size, source.dtype)

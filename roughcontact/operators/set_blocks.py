@@ -1,8 +1,10 @@
 """Blocks sized by a contact or free set, made in sizes that repeat from one set to the next.
 
-A solve makes, at every move of its set, arrays as long as the set: the set's node indices, its
-gathered gap, C_S's coordinates (Eq. 8), the extension's and the hole charge's copies. Made at
-the set's exact size, each is a little longer than the block its predecessor freed, so the heap
+A solve makes, at every move of its set, arrays as long as the set: the gathers onto it
+(:func:`.passes.gather`: the gap g, the directions), the primal–dual steps' node indices and
+C_S's coordinates (Eq. 8; :func:`roughcontact.normal.problem.node_indices`,
+``NormalProblem.arms_at``), the extension's copy of the set and the edge weights. Made at the
+set's exact size, each is often a little longer than the block its predecessor freed, so the heap
 cannot place it there: the freed blocks stay resident beside the new ones. On two ranks that free
 memory was a quarter of a study's load-sweep peak (46 of 186 B/node at 1025², against 30 of 301
 on one rank; docs/solvers.md, "Load sweeps"). :func:`set_sized` makes such a block in the next

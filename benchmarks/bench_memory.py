@@ -31,7 +31,9 @@ of 2^k: 12 warm-started loads from 0.005 % to 0.5 % of E* A0, 94 % of the
 nodes in contact at the last at 1025², the rotation free with
 ``--free-rotation``, as a study's tasks), whose peak
 climbs from load to load above a single solve's (the allocator keeps what
-the earlier loads freed); its row gives each load's running peak too.
+the earlier loads freed); its row gives each load's running peak too. With ``--by-rows`` the
+task's surface is made on rank 0 and scattered by rows, as the farm hands a task to a group of
+ranks (every rank makes it whole otherwise, outside the measured peak).
 
 The solve keeps its result's fields on each rank's own rows (``gather=False``,
 :mod:`roughcontact.normal.fields`), as a run too large to replicate N values on every rank
@@ -142,6 +144,11 @@ def sweep_row(args, n: int, comm) -> dict:
     from roughcontact.operators import operator_memory
 
     topography, rock, loads = ensemble_task(int(np.log2(n)))
+    if args.by_rows:
+        # as the farm hands a task to a group of ranks: rank 0's surface scattered by rows
+        from roughcontact.surfaces import TopographyRows
+
+        topography = TopographyRows.scatter(topography if comm.Get_rank() == 0 else None, comm)
     reset, base = start_peak(comm)
     nodes = topography.shape[0] * topography.shape[1]
     running = []
@@ -157,7 +164,8 @@ def sweep_row(args, n: int, comm) -> dict:
         "scene": "sweep", "n": topography.shape[0], "ranks": comm.Get_size(),
         "contact_fraction": result.contact_fraction, "peak_bytes_per_rank": peak, "peak_per_node": peak / nodes,
         "running_peak_per_node": running, "estimate_bytes_per_rank": operator_memory("fft", nodes, comm.Get_size()),
-        "peak_reset": bool(reset), "gathered": args.gather, "by_rows": False, "free_rotation": args.free_rotation}
+        "peak_reset": bool(reset), "gathered": args.gather, "by_rows": args.by_rows,
+        "free_rotation": args.free_rotation}
 
 
 def report(rows: list[dict]) -> dict:
@@ -198,8 +206,6 @@ def main() -> None:
     parser.add_argument("--sweep", action="store_true",
                         help="an ensemble task's 12-load sweep instead of one solve of a scene")
     args = parser.parse_args()
-    if args.sweep and args.by_rows:
-        parser.error("--sweep makes its surface whole on every rank; it does not take --by-rows")
     if args.sweep and any(n < 2 or n & (n - 1) for n in args.sizes):
         parser.error("--sweep takes sizes that are powers of two (the midpoint surface has 2^k + 1 nodes a side)")
     if args.worker:

@@ -24,9 +24,16 @@ def test_a_capacity_holds_its_count_within_one_step(count):
     assert held <= max(STEP * count + 1, 1)
 
 
+def test_no_capacity_falls_below_its_count():
+    """Every count up to 2 M in steps of 7 (and each power of two's neighbours): the logarithm's
+    rounding must never give a storage shorter than the block."""
+    counts = list(range(1, 2_000_000, 7)) + [2 ** k + d for k in range(1, 31) for d in (-1, 0, 1)]
+    assert all(capacity(c) >= c for c in counts)
+
+
 def test_the_capacities_are_few_and_shared_by_nearby_counts():
     """Over 1 … 2^20 the capacities are the ladder's rungs: 4 per doubling, 81 in all; a set
-    that grows by 1 % keeps its block's size for about 20 moves between rungs."""
+    that grows by 1 % keeps its block's size for about 17 moves between rungs."""
     counts = np.arange(1, (1 << 20) + 1, 97)
     held = np.array([capacity(int(c)) for c in counts])
     assert np.all(np.diff(held) >= 0)

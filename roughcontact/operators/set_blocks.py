@@ -23,10 +23,11 @@ CHUNK = 1 << 16
 
 
 def capacity(count: int) -> int:
-    """The ladder's size for ``count`` values: the least 2^(k / STEPS) ≥ count, rounded up; 1 for none."""
+    """The ladder's size for ``count`` values: the least 2^(k / STEPS) ≥ count, rounded up (never
+    below ``count``, whatever the rounding of the logarithm); 1 for none."""
     if count <= 1:
         return 1
-    return int(np.ceil(2.0 ** (np.ceil(np.log2(count) * STEPS) / STEPS)))
+    return max(count, int(np.ceil(2.0 ** (np.ceil(np.log2(count) * STEPS) / STEPS))))
 
 
 def set_sized(count: int, dtype=float, rows: int = 1) -> np.ndarray:

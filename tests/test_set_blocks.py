@@ -62,4 +62,3 @@ def test_the_indices_are_numpys_across_chunks(share, monkeypatch):
         found = indices_of(mask)
         assert found.dtype == np.intp
         np.testing.assert_array_equal(found, np.flatnonzero(mask))
-        np.testing.assert_array_equal(indices_of(mask, int(mask.sum())), np.flatnonzero(mask))

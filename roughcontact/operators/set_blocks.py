@@ -37,12 +37,10 @@ def set_sized(count: int, dtype=float, rows: int = 1) -> np.ndarray:
     return storage if rows == 1 else storage.reshape(rows, count)
 
 
-def indices_of(mask: np.ndarray, count: int | None = None) -> np.ndarray:
+def indices_of(mask: np.ndarray) -> np.ndarray:
     """numpy.flatnonzero(mask) of a 1-D ``mask`` into a :func:`set_sized` block, searched in
-    chunks of CHUNK nodes (``count``: the mask's True values, where known)."""
-    if count is None:
-        count = int(np.count_nonzero(mask))
-    out = set_sized(count, np.intp)
+    chunks of CHUNK nodes."""
+    out = set_sized(int(np.count_nonzero(mask)), np.intp)
     done = 0
     for start in range(0, mask.size, CHUNK):
         part = np.flatnonzero(mask[start:start + CHUNK])

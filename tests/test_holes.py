@@ -9,6 +9,7 @@ from scipy import ndimage
 from roughcontact.errors import InputError
 from roughcontact.materials import Interface, Material
 from roughcontact.normal import CGSettings
+from roughcontact.operators import holes as holes_module
 from roughcontact.operators.flexibility import Flexibility
 from roughcontact.operators.holes import DUST, HOLE_BLOCK, HOLE_SPAN, HoleCharge, block_side, enclosed
 from roughcontact.surfaces import Topography
@@ -161,12 +162,15 @@ def test_a_constant_gap_loses_the_charge_on_the_rims_on_any_rank_count(comm, hol
     assert comm.allreduce(int(rims.sum())) == (12 if hole else 0)    # the 4 × 4 square less the hole
 
 
-def test_a_dust_of_holes_loses_the_charge_on_its_blocks_on_any_rank_count(comm):
+@pytest.mark.parametrize("chunk", [1, 3, 1024])
+def test_a_dust_of_holes_loses_the_charge_on_its_blocks_on_any_rank_count(comm, chunk, monkeypatch):
     """Near full contact (holes 30 of the 54 nodes outside, ≥ DUST) a constant gap loses
     r^h = γ_b r on every node of the blocks whose outside is mostly holes (γ_b = 1 here) and r on
     the rims of the others (the blocks along the open strip, γ_b = 1/3), by
     :func:`whole_grid_weights` (round-off of one division and one product, 1e-14); on any rank
-    count, with blocks that straddle the slabs' boundaries."""
+    count, with blocks that straddle the slabs' boundaries, and with the charge spread over the
+    nodes a run, three runs or all runs at a time (RUNS_CHUNK: the last chunk short)."""
+    monkeypatch.setattr(holes_module, "RUNS_CHUNK", chunk)
     inside = np.ones((24, 20), dtype=bool)
     inside[:, 0] = False                                 # open: it touches the frame
     inside[2::4, 2::4] = False                           # 30 single-node holes

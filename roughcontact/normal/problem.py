@@ -21,7 +21,7 @@ import numpy as np
 from ..collective import Collective
 from ..errors import ConvergenceError, InputError
 from ..materials import Interface
-from ..operators.set_blocks import indices_of, set_sized
+from ..operators.set_blocks import held_for_set, indices_of
 from ..surfaces.rows import gather_into
 from ..surfaces.topography import Topography
 
@@ -188,7 +188,7 @@ class NormalProblem(Collective):
         """C's columns −y and −x (Eq. 8) at this rank's ``nodes`` as two contiguous rows, 2 × |nodes|
         values, for the moments Σ p·(−y), Σ p·(−x) by BLAS."""
         nodes = node_indices(nodes)
-        arms = set_sized(nodes.size, float, rows=2)
+        arms = held_for_set(nodes.size, float, rows=2)
         self._arms_into(nodes, arms[0], arms[1])
         return arms
 

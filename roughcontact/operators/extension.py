@@ -54,7 +54,7 @@ from scipy.ndimage import uniform_filter1d
 
 from ..surfaces.rows import padded_rows, reached_rows, rows_window
 from . import passes
-from .set_blocks import set_sized
+from .set_blocks import held_for_set
 
 #: the levels (nodes) from which the solver takes the extension (``CGSettings.extension_from``):
 #: measured on the ensemble task's sweeps at 17²–2049², 12-load tasks at 40² and 48², the default
@@ -128,7 +128,7 @@ class SmoothExtension:
             # the same array object, refilled)
             # the last set's copy goes first, so that the next one's block takes its place
             self._nodes, self._share, self._made, self._zeroed = None, None, None, None
-            self._nodes = set_sized(nodes.size, nodes.dtype)
+            self._nodes = held_for_set(nodes.size, nodes.dtype)
             self._nodes[:] = nodes
 
     def _weights(self, nodes: np.ndarray) -> tuple:
@@ -141,7 +141,11 @@ class SmoothExtension:
             layout = self.layout
             positions = layout.slab_positions(nodes)
             ny, ly = layout.shape[1], self.convolution.lengths[1]
-            period = positions if ly == ny else positions // ny * (ly - ny) + positions
+            period = positions
+            if ly > ny:                             # row × Ly + column, held while the set is
+                period = np.floor_divide(positions, ny, out=held_for_set(positions.size, positions.dtype))
+                period *= ly - ny
+                period += positions
             starts = np.searchsorted(positions, np.arange(layout.local_mask.shape[0] + 1) * ny)
             member = np.zeros(layout.local_mask.shape, dtype=np.float32)
             member.reshape(-1)[positions] = 1.0

@@ -80,6 +80,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..surfaces.rows import padded_rows
+from .set_blocks import held_for_set, set_sized
 
 #: the side of the blocks on which the hole charge is taken back (nodes), on grids of up to
 #: HOLE_SPAN × HOLE_BLOCK nodes a side
@@ -92,6 +93,8 @@ RIM = 1
 #: over the whole grid; then a block whose outside is at least this share holes, γ_b, takes the
 #: charge back on all its nodes of S in that share, the others on their rims
 DUST = 0.5
+#: the runs a spread repeats at a time (its temporary: at most this many blocks' rows)
+RUNS_CHUNK = 1024
 
 
 def block_side(shape: tuple[int, int]) -> int:
@@ -233,7 +236,8 @@ class HoleCharge:
             # (built in place: temporaries of 8 B per node raised the peak near full contact)
             self.on_rim = None
             self.runs = _Runs.of(positions, self.layout, self.block, self.grid)
-            self.charge = self.runs.spread(self.dust)       # γ_b, or 0 on the blocks on their rims
+            # γ_b, or 0 on the blocks on their rims
+            self.charge = self.runs.spread(self.dust, held_for_set(positions.size))
             np.copyto(self.charge, self.rim[positions], where=self.charge == 0.0)
             self.charge *= edge
             self.charge *= self.factor
@@ -247,8 +251,10 @@ class HoleCharge:
         if not self.active:
             return
         on = g if self.on_rim is None else g[self.on_rim]
-        sums = self.comm.allreduce(self.runs.block_sums(self.charge * on, self.count))
-        taken = self.runs.spread(sums * self.inverse)
+        charged = np.multiply(self.charge, on, out=set_sized(on.size))
+        sums = self.comm.allreduce(self.runs.block_sums(charged, self.count))
+        del charged
+        taken = self.runs.spread(sums * self.inverse, set_sized(self.charge.size))
         taken *= self.charge
         if self.on_rim is None:
             z -= taken
@@ -290,9 +296,17 @@ class _Runs:
             return np.zeros(count)
         return np.bincount(self.blocks, weights=np.add.reduceat(values, self.starts), minlength=count)
 
-    def spread(self, per_block: np.ndarray) -> np.ndarray:
-        """``per_block``'s value of each node's block, node by node."""
-        return np.repeat(per_block[self.blocks], self.lengths)
+    def spread(self, per_block: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """``per_block``'s value of each node's block, node by node, into ``out`` (as long as the
+        runs together; they tile it), RUNS_CHUNK runs at a time (``numpy.repeat`` has no ``out``: a
+        whole set's repeat was a block of the set's size made at every subtraction)."""
+        values = per_block[self.blocks]
+        count, chunk = self.starts.size, RUNS_CHUNK
+        for a in range(0, count, chunk):
+            b = min(a + chunk, count)
+            stop = self.starts[b] if b < count else out.size
+            out[self.starts[a]:stop] = np.repeat(values[a:b], self.lengths[a:b])
+        return out
 
 
 def _near(field: np.ndarray, comm, first_row: int, rows_total: int, beyond: bool) -> np.ndarray:

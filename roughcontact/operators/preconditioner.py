@@ -72,7 +72,7 @@ from . import passes
 from .convolution import SlabConvolution, dense
 from .kernel import mirrored_kernel, punch_kernel
 from .near_field import gathered_centres
-from .set_blocks import set_sized
+from .set_blocks import held_for_set
 
 #: the share of κ the edge correction removes, and its cap in units of C⁻¹'s diagonal. On the fixed
 #: solved set of the large-grid scene at 512² / 1024² / 2048² (benchmarks/bench_deflation.py, PCG
@@ -220,7 +220,7 @@ class FourierPreconditioner:
 
     def weights_from_sums(self, sums: np.ndarray, share: float) -> np.ndarray:
         """e_i = share · min(max(κ_i, 0), EDGE_CAP · A_ii) from (A 1_S)_i on S, float64."""
-        weights = np.subtract(sums, self.inverse_row_sum, out=set_sized(np.size(sums)), dtype=float)
+        weights = np.subtract(sums, self.inverse_row_sum, out=held_for_set(np.size(sums)), dtype=float)
         np.clip(weights, 0.0, EDGE_CAP * self.inverse_diagonal, out=weights)
         weights *= share
         return weights

@@ -254,7 +254,7 @@ class HoleCharge:
         charged = np.multiply(self.charge, on, out=set_sized(on.size))
         sums = self.comm.allreduce(self.runs.block_sums(charged, self.count))
         del charged
-        taken = self.runs.spread(sums * self.inverse, set_sized(self.charge.size))
+        taken = self.runs.spread(sums * self.inverse)
         taken *= self.charge
         if self.on_rim is None:
             z -= taken
@@ -296,11 +296,15 @@ class _Runs:
             return np.zeros(count)
         return np.bincount(self.blocks, weights=np.add.reduceat(values, self.starts), minlength=count)
 
-    def spread(self, per_block: np.ndarray, out: np.ndarray) -> np.ndarray:
-        """``per_block``'s value of each node's block, node by node, into ``out`` (as long as the
-        runs together; they tile it), RUNS_CHUNK runs at a time (``numpy.repeat`` has no ``out``: a
-        whole set's repeat was a block of the set's size made at every subtraction)."""
+    def spread(self, per_block: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """``per_block``'s value of each node's block, node by node: a new array, or into ``out``
+        (as long as the runs together; they tile it) RUNS_CHUNK runs at a time, for a block that
+        is kept (``numpy.repeat`` has no ``out``; the chunks' copy costs a pass: 4.8–5.0 against
+        2.4–2.6 ms for 3.4 M nodes, so a subtraction's spread, made at every iteration, stays
+        whole)."""
         values = per_block[self.blocks]
+        if out is None:
+            return np.repeat(values, self.lengths)
         count, chunk = self.starts.size, RUNS_CHUNK
         for a in range(0, count, chunk):
             b = min(a + chunk, count)

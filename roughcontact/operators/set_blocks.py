@@ -67,8 +67,8 @@ def held_for_set(count: int, dtype=float, rows: int = 1) -> np.ndarray:
     given back to the system when the block goes (munmap) and leaves no hole in the heap; its
     pages are touched anew, once per set, as transparent huge pages where the system offers them:
     along the ensemble task's 1025² sweep on one rank, 314 of 535 held blocks were mapped, 1.6 GB
-    in all, and the sweep's time did not change (docs/solvers.md, "Load sweeps"). Where the mmap module has no private mappings (Windows)
-    the block is a :func:`set_sized` one."""
+    in all, and the sweep's time did not change (docs/solvers.md, "Load sweeps"). Where the mmap
+    module has no private mappings (Windows) the block is a :func:`set_sized` one."""
     dtype = np.dtype(dtype)
     nbytes = rows * count * dtype.itemsize
     if nbytes < MAPPED_FROM or not hasattr(mmap, "MAP_PRIVATE"):
@@ -76,7 +76,11 @@ def held_for_set(count: int, dtype=float, rows: int = 1) -> np.ndarray:
     mapping = mmap.mmap(-1, nbytes, flags=mmap.MAP_PRIVATE)
     if hasattr(mmap, "MADV_HUGEPAGE"):
         # a fault per 2 MiB, not per 4 KiB: 30 MB touched anew took 3.4–3.8 ms against 20.5–21.5
-        # (2.1 for a block the heap reused)
-        mapping.madvise(mmap.MADV_HUGEPAGE)
+        # (2.1 for a block the heap reused); a kernel without huge pages refuses (EINVAL), and
+        # the block is then on 4 KiB pages
+        try:
+            mapping.madvise(mmap.MADV_HUGEPAGE)
+        except OSError:
+            pass
     storage = np.frombuffer(mapping, dtype=dtype, count=rows * count)
     return storage if rows == 1 else storage.reshape(rows, count)

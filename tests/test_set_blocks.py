@@ -3,7 +3,9 @@ blocks of sets of nearby sizes repeat their size, and the set's node indices exa
 
 The ladder is arithmetic on integers and powers of two, so its checks are exact: every capacity
 holds its count, exceeds it by less than one step (2^(1/4)), and counts between two rungs share
-one capacity. The indices must equal numpy.flatnonzero bit for bit, at chunk boundaries too.
+one capacity. The indices must equal numpy.flatnonzero bit for bit, at chunk boundaries too. The
+blocks held while their set is take a mapping of their own from MAPPED_FROM bytes, whose pages
+must leave the process when the block goes (the kernel's resident set, in whole MiB).
 """
 from __future__ import annotations
 

@@ -126,7 +126,8 @@ class SmoothExtension:
         if self.comm.allreduce(int(not kept)):
             # g's field too: its zeros were for the set forgotten (the new set's positions may be
             # the same array object, refilled)
-            # the last set's copy goes first, so that the next one's block takes its place
+            # the last set's copy goes first: its ladder block's place, or its mapping's pages
+            # (held_for_set), are free before the next one is made
             self._nodes, self._share, self._made, self._zeroed = None, None, None, None
             self._nodes = held_for_set(nodes.size, nodes.dtype)
             self._nodes[:] = nodes

@@ -4,8 +4,9 @@
 Near full contact the fine level settles its contact set by the primal–dual
 active set (roughcontact/normal/primal_dual.py): each set is solved to THETA
 of the residual it started from and then moved, and each set starts from an
-exact H p. This benchmark bounds what any prediction of the set could save
-(from the same start, with the same steps).
+exact H p. This benchmark bounds what a prediction of the set could save
+(from the same start and with the same preconditioned steps, which could at
+best be given S* and solve it to the tolerance).
 Each surface (``full``: Δ = 2.5 at 1 E*, or ``scene``: the large-grid scene;
 benchmarks/bench_products.py) is solved two ways on one rank, the rotation fixed:
 

@@ -66,9 +66,13 @@ def held_solver(problem, held: np.ndarray):
             theta = primal_dual.THETA
             primal_dual.THETA = 0.0
             try:
-                return super()._primal_dual(*args, **kwargs)
+                settled = super()._primal_dual(*args, **kwargs)
             finally:
                 primal_dual.THETA = theta
+            if settled[0] is None:
+                # the constrained CG would finish from its forces: the row would not be the bound
+                raise RuntimeError(f"the held set's primal-dual steps gave up after {settled[2]} products")
+            return settled
 
     return HeldSet(problem)
 

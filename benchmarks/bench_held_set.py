@@ -81,34 +81,36 @@ def measure(scene: str, n: int, seed: int, comm, repeats: int = 1) -> list[dict]
     """The two rows (kept, held) of one surface, each solve's seconds the median of ``repeats``
     (the two ways alternated, each first by turns)."""
     problem = common.scene_problem(common.scene_topography(n, seed=seed, **SHAPES[scene]), comm)
-    kept = common.solve_scene(problem, PRESSURES[scene])   # untimed: S*, and the problem's set-up done
-    held = kept.contact[problem.topography.footprint]
-    load = PRESSURES[scene] * problem.topography.nominal_area
-    results, seconds = {}, {"kept": [], "held": []}
-    for repeat in range(repeats):
-        for way in common.alternated(("kept", "held"), repeat):
-            start = time.perf_counter()
-            if way == "kept":
-                results[way] = common.solve_scene(problem, PRESSURES[scene])
-            else:
-                with held_solver(problem, held) as solver:
-                    results[way] = solver.solve_load(load, rotation=(0.0, 0.0))
-            seconds[way].append(time.perf_counter() - start)
-    rows = []
-    for way, result in results.items():
-        row = {"scene": scene, "n": n, "seed": seed, "way": way, "fine_iterations": result.linear_iterations,
-               "coarse_iterations": result.coarse_iterations, "fine_passes": result.outer_iterations,
-               "seconds": float(np.median(seconds[way])), "runs": seconds[way],
-               "contact_fraction": float(np.mean(result.contact)), "residual": result.residual}
-        if way == "held":
-            row["nodes_differing"] = int(np.count_nonzero(result.contact != kept.contact))
-            row["force_difference"] = float(np.abs(result.pressure - kept.pressure).max()
-                                            / np.abs(kept.pressure).max())
-            row["settling_costs"] = kept.linear_iterations - result.linear_iterations
-        rows.append(row)
-        print(" ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}" for k, v in row.items()
-                       if k != "runs"), flush=True)
-    problem.destroy()
+    try:
+        kept = common.solve_scene(problem, PRESSURES[scene])   # untimed: S*, and the problem's set-up done
+        held = kept.contact[problem.topography.footprint]
+        load = PRESSURES[scene] * problem.topography.nominal_area
+        results, seconds = {}, {"kept": [], "held": []}
+        for repeat in range(repeats):
+            for way in common.alternated(("kept", "held"), repeat):
+                start = time.perf_counter()
+                if way == "kept":
+                    results[way] = common.solve_scene(problem, PRESSURES[scene])
+                else:
+                    with held_solver(problem, held) as solver:
+                        results[way] = solver.solve_load(load, rotation=(0.0, 0.0))
+                seconds[way].append(time.perf_counter() - start)
+        rows = []
+        for way, result in results.items():
+            row = {"scene": scene, "n": n, "seed": seed, "way": way, "fine_iterations": result.linear_iterations,
+                   "coarse_iterations": result.coarse_iterations, "fine_passes": result.outer_iterations,
+                   "seconds": float(np.median(seconds[way])), "runs": seconds[way],
+                   "contact_fraction": float(np.mean(result.contact)), "residual": result.residual}
+            if way == "held":
+                row["nodes_differing"] = int(np.count_nonzero(result.contact != kept.contact))
+                row["force_difference"] = float(np.abs(result.pressure - kept.pressure).max()
+                                                / np.abs(kept.pressure).max())
+                row["settling_costs"] = kept.linear_iterations - result.linear_iterations
+            rows.append(row)
+            print(" ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}" for k, v in row.items()
+                           if k != "runs"), flush=True)
+    finally:
+        problem.destroy()
     return rows
 
 
